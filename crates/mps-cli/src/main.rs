@@ -1,0 +1,269 @@
+//! `mps`: command-line program over the MPS solver library.
+
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use mps::examples::EXAMPLES;
+use mps::run::{run, Observer, Progress, RunSummary};
+use mps::{Case, Simulation};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+mod bench;
+
+/// Moving Particle Semi-implicit (MPS) solver for incompressible free-surface and multiphase flow.
+#[derive(Parser)]
+#[command(name = "mps", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a case file or a built-in example.
+    Run(RunArgs),
+    /// List the built-in examples.
+    List,
+    /// Benchmark a case: ms/step, particle-steps/s, split of the step, 2-thread speed-up.
+    Bench(bench::BenchArgs),
+}
+
+/// Where a case comes from, and how to change it.
+#[derive(Args, Clone)]
+pub struct CaseArgs {
+    /// Case file (TOML).
+    pub case: Option<PathBuf>,
+    /// Run a built-in example instead (see `mps list`).
+    #[arg(long, conflicts_with = "case")]
+    pub example: Option<String>,
+    /// Override a case field, e.g. `--set time.end=1.0 --set scheme.name=MPS-HS-GC-DS`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    #[command(flatten)]
+    case: CaseArgs,
+    /// Output folder (default `runs/<case name>`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// No progress output.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Number of threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+/// Loads the case named by the arguments, with overrides applied; returns it and its label.
+pub fn load_case(a: &CaseArgs) -> Result<(Case, String), mps::CaseError> {
+    let overrides: Vec<(String, String)> = a
+        .set
+        .iter()
+        .map(|s| match s.split_once('=') {
+            Some((k, v)) => Ok((k.trim().to_string(), v.trim().to_string())),
+            None => Err(mps::CaseError {
+                file: "--set".into(),
+                field: s.clone(),
+                value: String::new(),
+                message: "expected KEY=VALUE".into(),
+            }),
+        })
+        .collect::<Result<_, _>>()?;
+    match (&a.case, &a.example) {
+        (Some(p), _) => Ok((Case::from_file(p, &overrides)?, p.display().to_string())),
+        (None, Some(name)) => {
+            let text = mps::examples::example(name).ok_or_else(|| mps::CaseError {
+                file: "--example".into(),
+                field: String::new(),
+                value: name.clone(),
+                message: format!(
+                    "no such example; one of {}",
+                    EXAMPLES.iter().map(|e| e.0).collect::<Vec<_>>().join(", ")
+                ),
+            })?;
+            let label = format!("example:{name}");
+            Ok((Case::from_str_named(text, &label, &overrides)?, label))
+        }
+        (None, None) => Err(mps::CaseError {
+            file: "mps run".into(),
+            field: String::new(),
+            value: String::new(),
+            message: "give a case file or --example NAME (see `mps list`)".into(),
+        }),
+    }
+}
+
+/// Progress as a bar on a terminal, as log lines otherwise.
+struct Reporter {
+    bar: Option<ProgressBar>,
+    quiet: bool,
+    last_log: Instant,
+}
+
+impl Reporter {
+    fn new(quiet: bool, end: f64) -> Self {
+        let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+            let b = ProgressBar::new(1000);
+            b.set_style(
+                ProgressStyle::with_template(
+                    "{bar:40.cyan/blue} t = {msg} [{elapsed_precise} < {eta_precise}]",
+                )
+                .expect("valid template"),
+            );
+            b.set_message(format!("0 / {end} s"));
+            b
+        });
+        Reporter {
+            bar,
+            quiet,
+            last_log: Instant::now(),
+        }
+    }
+}
+
+impl Observer for Reporter {
+    fn on_step(&mut self, p: &Progress) {
+        let rate = p.step as f64 / p.elapsed.max(1e-9);
+        if let Some(b) = &self.bar {
+            b.set_position(((p.time / p.end) * 1000.0) as u64);
+            b.set_message(format!(
+                "{:.4} / {} s, step {}, {:.0} steps/s, PPE {} it",
+                p.time, p.end, p.step, rate, p.report.solve.iterations
+            ));
+        } else if !self.quiet && self.last_log.elapsed().as_secs_f64() > 5.0 {
+            self.last_log = Instant::now();
+            let eta = (p.end - p.time) / (p.time / p.elapsed.max(1e-9)).max(1e-12);
+            eprintln!(
+                "t = {:.4} / {} s  step {}  {:.0} steps/s  dt {:.2e} s  PPE {} it  ETA {:.0} s",
+                p.time, p.end, p.step, rate, p.report.dt, p.report.solve.iterations, eta
+            );
+        }
+    }
+    fn on_message(&mut self, m: &str) {
+        if let Some(b) = &self.bar {
+            b.println(m);
+        } else if !self.quiet {
+            eprintln!("{m}");
+        }
+    }
+}
+
+fn print_timing(s: &RunSummary) {
+    let total: f64 = s.stages.iter().map(|x| x.1).sum();
+    let particles = s.fluid_particles + s.wall_particles + s.dummy_particles;
+    eprintln!(
+        "timing: {:.2} s wall, {} particles, {} steps, {:.3} M particle-steps/s, {:.2} ms/step, {} threads",
+        s.wall_seconds,
+        particles,
+        s.steps,
+        s.particle_steps_per_second / 1e6,
+        1e3 * s.wall_seconds / s.steps.max(1) as f64,
+        s.threads
+    );
+    eprintln!("  step loop {total:>9.3} s");
+    let n = s.stages.len();
+    for (k, (name, t)) in s.stages.iter().enumerate() {
+        let branch = if k + 1 == n { "└─" } else { "├─" };
+        eprintln!(
+            "  {branch} {name:<26} {t:>8.3} s {:>5.1} %",
+            100.0 * t / total.max(1e-12)
+        );
+    }
+}
+
+fn cmd_run(a: RunArgs) -> Result<ExitCode> {
+    if let Some(t) = a.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build_global()
+            .context("setting the thread count")?;
+    }
+    let (case, label) = match load_case(&a.case) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return Ok(ExitCode::from(1));
+        }
+    };
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("runs").join(&case.name));
+    let end = case.time.end;
+    let mut sim = match Simulation::<2>::new(case, &label) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return Ok(ExitCode::from(1));
+        }
+    };
+    if !a.quiet {
+        let p = &sim.particles;
+        eprintln!(
+            "{}: {} fluid, {} wall, {} dummy particles, l0 = {} m, scheme {}, to t = {} s -> {}",
+            label,
+            p.count(mps::particles::Kind::Fluid),
+            p.count(mps::particles::Kind::Wall),
+            p.count(mps::particles::Kind::Dummy),
+            sim.l0(),
+            sim.scheme.name,
+            end,
+            out.display()
+        );
+    }
+    let mut rep = Reporter::new(a.quiet, end);
+    let summary = run(&mut sim, &out, &mut rep)
+        .with_context(|| format!("writing output to {}", out.display()))?;
+    if let Some(b) = &rep.bar {
+        b.finish_and_clear();
+    }
+    if !a.quiet {
+        print_timing(&summary);
+        for v in &summary.validation {
+            eprintln!("validation: {} = {:.4} ({})", v.name, v.value, v.note);
+            if v.reference != 0.0 {
+                eprintln!(
+                    "            reference {:.4}, relative error {:+.2} %",
+                    v.reference,
+                    100.0 * v.error
+                );
+            }
+        }
+        eprintln!(
+            "output: {} (open particles.pvd in ParaView; metrics.csv, steps.csv, summary.toml)",
+            out.display()
+        );
+    }
+    if let Some(b) = &summary.breakdown {
+        eprintln!("error: {b}; last good state and breakdown.toml in {}", out.display());
+        return Ok(ExitCode::from(2));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let r = match cli.command {
+        Command::Run(a) => cmd_run(a),
+        Command::List => {
+            for (name, desc, _) in EXAMPLES {
+                println!("{name:<20} {desc}");
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Bench(a) => bench::cmd_bench(a),
+    };
+    match r {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(3)
+        }
+    }
+}
+

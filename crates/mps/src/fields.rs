@@ -1,0 +1,47 @@
+//! Read-only views of the particle state that the step's stages share.
+
+use crate::kernel::KernelConstants;
+use crate::neighbors::NeighborList;
+use crate::particles::Kind;
+use crate::vector::Vector;
+
+/// The two kernel radii of a simulation and the particle spacing.
+#[derive(Clone, Copy, Debug)]
+pub struct Kernels {
+    /// Radius for number density, gradient, free surface and DS (equations.md s.1).
+    pub grad: KernelConstants,
+    /// Radius for the Laplacian and the PPE.
+    pub lap: KernelConstants,
+    /// Initial particle spacing `l0` (m).
+    pub l0: f64,
+}
+
+impl Kernels {
+    /// Kernel constants for spacing `l0` (m) and radii given in units of `l0`.
+    pub fn new<const D: usize>(l0: f64, re_grad: f64, re_lap: f64) -> Self {
+        Kernels {
+            grad: KernelConstants::on_lattice::<D>(re_grad * l0, l0),
+            lap: KernelConstants::on_lattice::<D>(re_lap * l0, l0),
+            l0,
+        }
+    }
+}
+
+/// The state one stage of the step reads.
+#[derive(Clone, Copy)]
+pub struct Fields<'a, const D: usize> {
+    /// Positions (m), the intermediate `r*` after the explicit stage.
+    pub pos: &'a [Vector<D>],
+    /// Velocities (m/s), the intermediate `u*`.
+    pub vel: &'a [Vector<D>],
+    /// Particle kinds.
+    pub kind: &'a [Kind],
+    /// Densities (kg/m^3).
+    pub density: &'a [f64],
+    /// Free-surface flags.
+    pub free_surface: &'a [bool],
+    /// Number density `n*` at re_grad.
+    pub number_density: &'a [f64],
+    /// Neighbour lists (cut-off at least the largest radius).
+    pub neighbors: &'a NeighborList,
+}

@@ -1,0 +1,35 @@
+//! A Moving Particle Semi-implicit (MPS) solver for incompressible free-surface and multiphase
+//! flow, with the stabilization schemes of Tsuruta, Khayyer & Gotoh, "A Short Note on Dynamic
+//! Stabilization of Moving Particle Semi-implicit Method".
+//!
+//! Data flow, one module per stage:
+//! case file ([`case`]) -> set-up ([`setup`]) -> step loop ([`simulation`]: [`neighbors`] ->
+//! explicit forces ([`operators`]) -> number density and surface -> pressure solve
+//! ([`ppe`], [`linsolve`]) -> pressure gradient ([`gradient`]) and stabilization
+//! ([`stabilization`]) -> correction) -> output ([`output`], [`run`]) -> diagnostics and
+//! validation ([`diagnostics`], [`validation`]).
+
+pub mod analytic;
+pub mod case;
+pub mod diagnostics;
+pub mod examples;
+pub mod fields;
+pub mod gradient;
+pub mod kernel;
+pub mod linsolve;
+pub mod neighbors;
+pub mod operators;
+pub mod output;
+pub mod particles;
+pub mod ppe;
+pub mod run;
+pub mod scheme;
+pub mod setup;
+pub mod simulation;
+pub mod stabilization;
+pub mod validation;
+pub mod vector;
+pub mod walls;
+
+pub use case::{Case, CaseError};
+pub use simulation::{Breakdown, BreakdownReason, Simulation};

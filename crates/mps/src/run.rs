@@ -1,0 +1,337 @@
+//! The run loop: steps a simulation to its end time and writes everything a user needs:
+//! VTU + PVD snapshots, the metrics and per-step CSVs, probe CSVs, validation comparisons,
+//! a run summary, and on breakdown the last good state with a breakdown record.
+
+use crate::case::ValidationSpec;
+use crate::diagnostics::{front_position, Metrics, METRICS_HEADER};
+use crate::output::{pvd_bytes, vtu_bytes, write_atomic};
+use crate::particles::Kind;
+use crate::simulation::{Breakdown, Simulation, StepReport};
+use crate::validation::{dam_break_front, window_mean, ValidationResult};
+use crate::vector::Vector;
+use serde::Serialize;
+use std::io;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Progress of a run, passed to the observer after every step.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// Simulated time (s).
+    pub time: f64,
+    /// End time (s).
+    pub end: f64,
+    /// Steps taken.
+    pub step: u64,
+    /// Last step's report.
+    pub report: StepReport,
+    /// Wall-clock seconds since the run started.
+    pub elapsed: f64,
+}
+
+/// Receives progress of a run (the CLI draws a progress bar or logs lines).
+pub trait Observer {
+    /// Called after every step.
+    fn on_step(&mut self, _p: &Progress) {}
+    /// Called with a one-line message (outputs written, breakdown).
+    fn on_message(&mut self, _m: &str) {}
+}
+
+/// An observer that ignores everything.
+pub struct Silent;
+impl Observer for Silent {}
+
+/// Summary of a finished (or broken-down) run, written as `summary.toml`.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunSummary {
+    /// Case name.
+    pub case: String,
+    /// Scheme preset.
+    pub scheme: String,
+    /// Fluid particles.
+    pub fluid_particles: usize,
+    /// Wall particles.
+    pub wall_particles: usize,
+    /// Dummy particles.
+    pub dummy_particles: usize,
+    /// Particle spacing (m).
+    pub spacing: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// Simulated time reached (s).
+    pub time: f64,
+    /// End time asked for (s).
+    pub end_time: f64,
+    /// Wall-clock time (s).
+    pub wall_seconds: f64,
+    /// Particle-steps per second (all particles).
+    pub particle_steps_per_second: f64,
+    /// Mean PPE iterations per step.
+    pub mean_ppe_iterations: f64,
+    /// Breakdown description, if the run broke down.
+    pub breakdown: Option<String>,
+    /// Breakdown time (s), if any.
+    pub breakdown_time: Option<f64>,
+    /// Validation figures.
+    pub validation: Vec<ValidationResult>,
+    /// Seconds per stage of the step.
+    pub stages: Vec<(String, f64)>,
+    /// Rayon threads used.
+    pub threads: usize,
+}
+
+struct Recorder {
+    out: PathBuf,
+    write_vtu: bool,
+    snapshots: Vec<(f64, String)>,
+    metrics: Vec<String>,
+    steps: Vec<String>,
+    probes: Vec<String>,
+    probe_series: Vec<Vec<(f64, f64)>>,
+    front: Vec<(f64, f64)>,
+}
+
+impl Recorder {
+    fn snapshot<const D: usize>(&mut self, sim: &Simulation<D>, name: &str) -> io::Result<()> {
+        if self.write_vtu {
+            write_atomic(&self.out.join(name), &vtu_bytes(&sim.particles, sim.time))?;
+            self.snapshots.push((sim.time, name.to_string()));
+            write_atomic(&self.out.join("particles.pvd"), &pvd_bytes(&self.snapshots))?;
+        }
+        Ok(())
+    }
+
+    fn output<const D: usize>(&mut self, sim: &Simulation<D>) -> io::Result<()> {
+        let k = self.metrics.len();
+        self.snapshot(sim, &format!("particles_{k:06}.vtu"))?;
+        self.metrics.push(Metrics::measure(sim).csv_row());
+        self.flush_series()
+    }
+
+    fn flush_series(&self) -> io::Result<()> {
+        let join = |header: &str, rows: &[String]| {
+            let mut s = String::with_capacity(rows.len() * 80 + header.len() + 1);
+            s.push_str(header);
+            s.push('\n');
+            for r in rows {
+                s.push_str(r);
+                s.push('\n');
+            }
+            s
+        };
+        write_atomic(
+            &self.out.join("metrics.csv"),
+            join(METRICS_HEADER, &self.metrics).as_bytes(),
+        )?;
+        write_atomic(
+            &self.out.join("steps.csv"),
+            join(STEPS_HEADER, &self.steps).as_bytes(),
+        )?;
+        if !self.probe_series.is_empty() {
+            write_atomic(&self.out.join("probes.csv"), self.probes.join("\n").as_bytes())?;
+        }
+        Ok(())
+    }
+}
+
+const STEPS_HEADER: &str =
+    "step,time,dt,unknowns,ppe_iterations,ppe_residual,ds_active,min_pair_distance_l0,close_pairs,max_speed,collisions";
+
+/// Runs `sim` to its end time, writing into `out` (created if missing).
+pub fn run<const D: usize>(
+    sim: &mut Simulation<D>,
+    out: &Path,
+    observer: &mut dyn Observer,
+) -> io::Result<RunSummary> {
+    std::fs::create_dir_all(out)?;
+    let case = sim.case.clone();
+    let probes: Vec<(String, Vector<D>)> = case
+        .probes
+        .iter()
+        .map(|p| (p.name.clone(), Vector::from_slice(&p.position).expect("validated")))
+        .collect();
+    let mut rec = Recorder {
+        out: out.to_path_buf(),
+        write_vtu: case.output.vtu,
+        snapshots: Vec::new(),
+        metrics: Vec::new(),
+        steps: Vec::new(),
+        probes: vec![std::iter::once("time".to_string())
+            .chain(probes.iter().map(|p| p.0.clone()))
+            .collect::<Vec<_>>()
+            .join(",")],
+        probe_series: vec![Vec::new(); probes.len()],
+        front: Vec::new(),
+    };
+    let sample_probes = |sim: &Simulation<D>, rec: &mut Recorder| {
+        let mut row = format!("{:.9}", sim.time);
+        for (k, (_, x)) in probes.iter().enumerate() {
+            let v = sim.sample_pressure(x).unwrap_or(f64::NAN);
+            row.push_str(&format!(",{v:.6e}"));
+            rec.probe_series[k].push((sim.time, v));
+        }
+        rec.probes.push(row);
+    };
+    let wall_x = match &case.validation {
+        Some(ValidationSpec::DamBreak { wall_x, .. }) => Some(*wall_x),
+        _ => None,
+    };
+    if let Some(wx) = wall_x {
+        rec.front.push((sim.time, front_position(sim) - wx));
+    }
+    sample_probes(sim, &mut rec);
+    rec.output(sim)?;
+
+    let start = Instant::now();
+    let end = case.time.end;
+    let interval = case.output.interval;
+    let mut next_out = if interval > 0.0 { interval } else { end };
+    let max_steps = case.time.max_steps.unwrap_or(u64::MAX);
+    let mut breakdown: Option<Breakdown> = None;
+    let mut iterations_total = 0u64;
+    let mut last_output_step = sim.step_count;
+    let eps = 1e-9 * end;
+    while sim.time < end - eps && sim.step_count < max_steps {
+        let target = next_out.min(end);
+        match sim.step(target) {
+            Ok(r) => {
+                iterations_total += r.solve.iterations as u64;
+                rec.steps.push(format!(
+                    "{},{:.9},{:.6e},{},{},{:.3e},{},{:.6},{},{:.6e},{}",
+                    sim.step_count,
+                    sim.time,
+                    r.dt,
+                    r.unknowns,
+                    r.solve.iterations,
+                    r.solve.residual,
+                    r.ds_active,
+                    r.min_pair_distance / sim.l0(),
+                    r.close_pairs,
+                    r.max_speed,
+                    r.collisions
+                ));
+                sample_probes(sim, &mut rec);
+                if let Some(wx) = wall_x {
+                    rec.front.push((sim.time, front_position(sim) - wx));
+                }
+                if sim.time >= target - eps {
+                    if target < end - eps {
+                        rec.output(sim)?;
+                        last_output_step = sim.step_count;
+                        next_out += interval;
+                    }
+                }
+                observer.on_step(&Progress {
+                    time: sim.time,
+                    end,
+                    step: sim.step_count,
+                    report: r,
+                    elapsed: start.elapsed().as_secs_f64(),
+                });
+            }
+            Err(b) => {
+                observer.on_message(&b.to_string());
+                breakdown = Some(b);
+                break;
+            }
+        }
+    }
+    let wall = start.elapsed().as_secs_f64();
+    if let Some(b) = &breakdown {
+        rec.snapshot(sim, "breakdown_last_good_state.vtu")?;
+        rec.metrics.push(Metrics::measure(sim).csv_row());
+        let ids: Vec<String> = b.particles.iter().map(|i| i.to_string()).collect();
+        let record = format!(
+            "# The run broke down; the last good state is in breakdown_last_good_state.vtu.\n\
+             time = {:.9}\nstep = {}\nreason = {:?}\nmessage = {:?}\nparticles = [{}]\n",
+            b.time,
+            b.step,
+            format!("{:?}", b.reason),
+            b.to_string(),
+            ids.join(", ")
+        );
+        write_atomic(&out.join("breakdown.toml"), record.as_bytes())?;
+    } else if sim.step_count != last_output_step || rec.metrics.len() == 1 {
+        rec.output(sim)?;
+    }
+    rec.flush_series()?;
+
+    // Validation against reference data.
+    let mut validation = Vec::new();
+    match &case.validation {
+        Some(ValidationSpec::DamBreak { column_width, .. }) => {
+            let (rows, rms) = dam_break_front(&rec.front, *column_width, sim.gravity.norm());
+            let mut csv = String::from("T,Z_experiment,Z_simulation,difference\n");
+            for (t, ze, zs) in &rows {
+                csv.push_str(&format!("{t:.3},{ze:.3},{zs:.4},{:.4}\n", zs - ze));
+            }
+            write_atomic(&out.join("dam_break_front.csv"), csv.as_bytes())?;
+            let mut fcsv = String::from("time,front\n");
+            for (t, x) in &rec.front {
+                fcsv.push_str(&format!("{t:.9},{x:.6e}\n"));
+            }
+            write_atomic(&out.join("front.csv"), fcsv.as_bytes())?;
+            validation.push(ValidationResult {
+                name: "dam_break_front_rms_Z".into(),
+                value: rms,
+                reference: 0.0,
+                error: rms,
+                note: format!(
+                    "RMS of Z_sim - Z_exp over {} Martin & Moyce points, l0 = {} m (L/l0 = {:.1})",
+                    rows.len(),
+                    sim.l0(),
+                    column_width / sim.l0()
+                ),
+            });
+        }
+        Some(ValidationSpec::Hydrostatic {
+            depth,
+            probe,
+            window,
+        }) => {
+            let k = case.probes.iter().position(|p| &p.name == probe).expect("validated");
+            let rho = case.phases[0].density;
+            let exact = rho * sim.gravity.norm() * depth;
+            if let Some(mean) = window_mean(&rec.probe_series[k], *window) {
+                validation.push(ValidationResult {
+                    name: "hydrostatic_bottom_pressure".into(),
+                    value: mean,
+                    reference: exact,
+                    error: (mean - exact) / exact,
+                    note: format!(
+                        "mean of probe `{probe}` over the last {window} s against rho g H"
+                    ),
+                });
+            }
+        }
+        None => {}
+    }
+    let total = sim.particles.len();
+    let summary = RunSummary {
+        case: case.name.clone(),
+        scheme: sim.scheme.name.clone(),
+        fluid_particles: sim.particles.count(Kind::Fluid),
+        wall_particles: sim.particles.count(Kind::Wall),
+        dummy_particles: sim.particles.count(Kind::Dummy),
+        spacing: sim.l0(),
+        steps: sim.step_count,
+        time: sim.time,
+        end_time: end,
+        wall_seconds: wall,
+        particle_steps_per_second: total as f64 * sim.step_count as f64 / wall.max(1e-9),
+        mean_ppe_iterations: iterations_total as f64 / sim.step_count.max(1) as f64,
+        breakdown: breakdown.as_ref().map(|b| b.to_string()),
+        breakdown_time: breakdown.as_ref().map(|b| b.time),
+        validation,
+        stages: sim
+            .timers
+            .stages()
+            .iter()
+            .map(|(n, d)| (n.to_string(), d.as_secs_f64()))
+            .collect(),
+        threads: rayon::current_num_threads(),
+    };
+    let text = toml::to_string(&summary).map_err(|e| io::Error::other(e.to_string()))?;
+    write_atomic(&out.join("summary.toml"), text.as_bytes())?;
+    Ok(summary)
+}
