@@ -75,10 +75,21 @@ pub fn cmd_bench(a: BenchArgs) -> Result<ExitCode> {
         })?;
         rows.push(row);
     }
-    println!("case {label}: {} particles, {steps} steps", rows[0].particles);
+    println!(
+        "case {label}: {} particles, {steps} steps",
+        rows[0].particles
+    );
     println!(
         "{:>7} {:>10} {:>12} {:>9} {:>11} {:>11} {:>11} {:>11} {:>9}",
-        "threads", "ms/step", "Mpart-st/s", "PPE it", "neighb ms", "assemb ms", "solve ms", "rest ms", "speed-up"
+        "threads",
+        "ms/step",
+        "Mpart-st/s",
+        "PPE it",
+        "neighb ms",
+        "assemb ms",
+        "solve ms",
+        "rest ms",
+        "speed-up"
     );
     let mut csv = String::from("threads,particles,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,solve_ms,rest_ms,speedup\n");
     let base = rows[0].seconds;
@@ -92,7 +103,15 @@ pub fn cmd_bench(a: BenchArgs) -> Result<ExitCode> {
         let speedup = base / r.seconds;
         println!(
             "{:>7} {:>10.3} {:>12.3} {:>9.1} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>9.2}",
-            r.threads, total, pss / 1e6, r.mean_iterations, nb, asm, sol, rest, speedup
+            r.threads,
+            total,
+            pss / 1e6,
+            r.mean_iterations,
+            nb,
+            asm,
+            sol,
+            rest,
+            speedup
         );
         csv.push_str(&format!(
             "{},{},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{sol:.4},{rest:.4},{speedup:.3}\n",

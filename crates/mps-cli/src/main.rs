@@ -240,7 +240,10 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
         );
     }
     if let Some(b) = &summary.breakdown {
-        eprintln!("error: {b}; last good state and breakdown.toml in {}", out.display());
+        eprintln!(
+            "error: {b}; last good state and breakdown.toml in {}",
+            out.display()
+        );
         return Ok(ExitCode::from(2));
     }
     Ok(ExitCode::SUCCESS)
@@ -266,4 +269,3 @@ fn main() -> ExitCode {
         }
     }
 }
-

@@ -8,7 +8,14 @@ use std::f64::consts::PI;
 ///
 /// `p0 = - sum_{m,n odd} 32 rho omega^2 / (m n pi^2 ((m pi/L)^2 + (n pi/L)^2))
 ///        sin(m pi x'/L) sin(n pi y'/L)`.
-pub fn square_patch_pressure(xp: f64, yp: f64, side: f64, rho: f64, omega: f64, terms: usize) -> f64 {
+pub fn square_patch_pressure(
+    xp: f64,
+    yp: f64,
+    side: f64,
+    rho: f64,
+    omega: f64,
+    terms: usize,
+) -> f64 {
     let l = side;
     let mut p = 0.0;
     for a in 0..terms {
@@ -31,9 +38,16 @@ mod tests {
     #[test]
     fn square_patch_reference_values() {
         let p = |x, y| square_patch_pressure(x, y, 1.0, 1000.0, 1.0, 200);
-        for (x, y, want) in [(0.5, 0.5, -147.34), (0.25, 0.5, -114.67), (0.25, 0.25, -90.57)] {
+        for (x, y, want) in [
+            (0.5, 0.5, -147.34),
+            (0.25, 0.5, -114.67),
+            (0.25, 0.25, -90.57),
+        ] {
             let got = p(x, y);
-            assert!(((got - want) / want).abs() < 0.005, "p({x},{y}) = {got}, want {want}");
+            assert!(
+                ((got - want) / want).abs() < 0.005,
+                "p({x},{y}) = {got}, want {want}"
+            );
         }
         assert!(p(0.0, 0.3).abs() < 1e-9);
     }

@@ -297,6 +297,8 @@ pub struct SchemeSpec {
     pub source: Option<SourceModel>,
     /// HS normalisation.
     pub hs_normalization: Option<HsNormalization>,
+    /// Relaxation coefficient on the PND source (1 = restore the density error in one step).
+    pub pnd_relaxation: Option<f64>,
     /// Drift control override.
     pub drift: Option<DriftControl>,
     /// Drift-control coefficient `gamma`.
@@ -731,11 +733,7 @@ impl Case {
         }
         let vec_ok = |field: &str, v: &[f64]| -> Result<(), CaseError> {
             if v.len() != d {
-                return err(
-                    field,
-                    format!("{v:?}"),
-                    &format!("expected {d} components"),
-                );
+                return err(field, format!("{v:?}"), &format!("expected {d} components"));
             }
             if v.iter().any(|x| !x.is_finite()) {
                 return err(field, format!("{v:?}"), "components must be finite");
@@ -949,7 +947,11 @@ impl Case {
         };
         let len = |f: &str, v: &[f64]| {
             if v.len() != d || v.iter().any(|x| !x.is_finite()) {
-                e(f, format!("{v:?}"), &format!("expected {d} finite components"))
+                e(
+                    f,
+                    format!("{v:?}"),
+                    &format!("expected {d} finite components"),
+                )
             } else {
                 Ok(())
             }
@@ -959,7 +961,11 @@ impl Case {
                 len("min", min)?;
                 len("max", max)?;
                 if min.iter().zip(max).any(|(a, b)| b <= a) {
-                    return e("max", format!("{max:?}"), "must exceed min in every component");
+                    return e(
+                        "max",
+                        format!("{max:?}"),
+                        "must exceed min in every component",
+                    );
                 }
                 if !wall && matches!(s, ShapeSpec::Tank { .. }) {
                     return e("type", "\"tank\"".into(), "tank is a wall shape");
@@ -972,7 +978,11 @@ impl Case {
                 }
             }
             ShapeSpec::Polygon { points } | ShapeSpec::Polyline { points, .. } => {
-                let need = if matches!(s, ShapeSpec::Polygon { .. }) { 3 } else { 2 };
+                let need = if matches!(s, ShapeSpec::Polygon { .. }) {
+                    3
+                } else {
+                    2
+                };
                 if points.len() < need {
                     return e(
                         "points",
@@ -1036,14 +1046,12 @@ fn locate_field(text: &str, msg: &str) -> Option<usize> {
     let start = msg.find('`')? + 1;
     let end = start + msg[start..].find('`')?;
     let name = &msg[start..end];
-    text.lines().position(|l| {
-        let t = l.trim_start();
-        t.starts_with(name)
-            && t[name.len()..]
-                .trim_start()
-                .starts_with(['=', '.'])
-    })
-    .map(|l| l + 1)
+    text.lines()
+        .position(|l| {
+            let t = l.trim_start();
+            t.starts_with(name) && t[name.len()..].trim_start().starts_with(['=', '.'])
+        })
+        .map(|l| l + 1)
 }
 
 #[cfg(test)]
@@ -1085,8 +1093,12 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
 
     #[test]
     fn negative_spacing_is_named_with_its_value() {
-        let e = Case::from_str_named(MINIMAL, "t.toml", &[("particles.spacing".into(), "-0.01".into())])
-            .unwrap_err();
+        let e = Case::from_str_named(
+            MINIMAL,
+            "t.toml",
+            &[("particles.spacing".into(), "-0.01".into())],
+        )
+        .unwrap_err();
         assert_eq!(e.field, "particles.spacing");
         assert_eq!(e.value, "-0.01");
     }

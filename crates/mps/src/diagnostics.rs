@@ -162,8 +162,33 @@ impl Metrics {
     }
 }
 
-/// Largest x of any fluid particle (m): the dam-break surge front.
+/// The dam-break surge front (m): the largest x of a fluid particle that belongs to the
+/// continuous body, i.e. has at least two fluid neighbours within re_grad. Single particles
+/// skidding ahead along the floor are spray, not the front an experiment records.
 pub fn front_position<const D: usize>(sim: &Simulation<D>) -> f64 {
+    let p = &sim.particles;
+    let f = sim.fields();
+    let re2 = sim.kernels.grad.re.powi(2);
+    (0..p.len())
+        .into_par_iter()
+        .filter(|&i| p.kind[i] == Kind::Fluid)
+        .filter(|&i| {
+            f.neighbors
+                .of(i)
+                .iter()
+                .filter(|&&j| {
+                    p.kind[j as usize] == Kind::Fluid
+                        && (p.position[j as usize] - p.position[i]).norm2() < re2
+                })
+                .count()
+                >= 2
+        })
+        .map(|i| p.position[i][0])
+        .reduce(|| f64::MIN, f64::max)
+}
+
+/// Largest x of any fluid particle (m).
+pub fn leading_particle<const D: usize>(sim: &Simulation<D>) -> f64 {
     let p = &sim.particles;
     (0..p.len())
         .filter(|&i| p.kind[i] == Kind::Fluid)
@@ -176,7 +201,9 @@ pub fn rms_speed<const D: usize>(sim: &Simulation<D>) -> f64 {
     let p = &sim.particles;
     let (s, n) = (0..p.len())
         .filter(|&i| p.kind[i] == Kind::Fluid)
-        .fold((0.0, 0usize), |(s, n), i| (s + p.velocity[i].norm2(), n + 1));
+        .fold((0.0, 0usize), |(s, n), i| {
+            (s + p.velocity[i].norm2(), n + 1)
+        });
     if n == 0 {
         0.0
     } else {

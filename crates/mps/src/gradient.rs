@@ -13,13 +13,7 @@ use crate::vector::{Matrix, Vector};
 
 /// Minimum pressure `p_hat_i = min(p_i, min_j p_j)` over neighbours within re_grad that carry
 /// pressure (paper Eq. 2).
-pub fn p_hat<const D: usize>(
-    i: usize,
-    f: &Fields<D>,
-    p: &[f64],
-    carries: &[bool],
-    re: f64,
-) -> f64 {
+pub fn p_hat<const D: usize>(i: usize, f: &Fields<D>, p: &[f64], carries: &[bool], re: f64) -> f64 {
     let xi = f.pos[i];
     let mut m = p[i];
     for &j in f.neighbors.of(i) {
@@ -104,8 +98,10 @@ mod tests {
     use crate::particles::Kind;
 
     fn scheme(name: &str) -> Scheme {
-        let mut sp = SchemeSpec::default();
-        sp.name = name.into();
+        let sp = SchemeSpec {
+            name: name.into(),
+            ..Default::default()
+        };
         Scheme::from_spec(&sp).unwrap()
     }
 
@@ -118,7 +114,9 @@ mod tests {
         let mut p = Vec::new();
         let mut seed = 99u64;
         let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for a in 0..15 {
@@ -149,7 +147,9 @@ mod tests {
         };
         let s = scheme("CMPS-HS");
         let carries = vec![true; n];
-        let ph: Vec<f64> = (0..n).map(|i| p_hat(i, &f, &p, &carries, k.grad.re)).collect();
+        let ph: Vec<f64> = (0..n)
+            .map(|i| p_hat(i, &f, &p, &carries, k.grad.re))
+            .collect();
         let mut force = Vector::<2>::zero();
         let mut torque = 0.0;
         let mut scale = 0.0;

@@ -75,7 +75,12 @@ mod tests {
     fn check<const D: usize>(re: f64, n0: f64, lambda: f64, nb: usize) {
         let c = KernelConstants::on_lattice::<D>(re, 1.0);
         assert!((c.n0 - n0).abs() < 1e-4, "n0 {} vs {}", c.n0, n0);
-        assert!((c.lambda - lambda).abs() < 1e-4, "lambda {} vs {}", c.lambda, lambda);
+        assert!(
+            (c.lambda - lambda).abs() < 1e-4,
+            "lambda {} vs {}",
+            c.lambda,
+            lambda
+        );
         assert_eq!(c.neighbours, nb);
     }
 

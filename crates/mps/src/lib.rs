@@ -9,6 +9,11 @@
 //! ([`stabilization`]) -> correction) -> output ([`output`], [`run`]) -> diagnostics and
 //! validation ([`diagnostics`], [`validation`]).
 
+// `!(x > 0.0)` is used on purpose: it rejects NaN as well as non-positive values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops over components and particles read like the equations they implement.
+#![allow(clippy::needless_range_loop)]
+
 pub mod analytic;
 pub mod case;
 pub mod diagnostics;

@@ -52,7 +52,9 @@ impl CsrMatrix {
             .into_par_iter()
             .map(|i| {
                 let (c, v) = self.row(i);
-                c.iter().position(|&j| j as usize == i).map_or(0.0, |k| v[k])
+                c.iter()
+                    .position(|&j| j as usize == i)
+                    .map_or(0.0, |k| v[k])
             })
             .collect()
     }
@@ -331,7 +333,11 @@ mod tests {
         ] {
             let mut x = vec![0.0; 200];
             let s = pcg(&a, &b, &mut x, &m, 1e-10, 1000).unwrap();
-            let err = x.iter().zip(&xs).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+            let err = x
+                .iter()
+                .zip(&xs)
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f64::max);
             assert!(err < 1e-6, "{m:?}: err {err} after {}", s.iterations);
         }
     }
@@ -342,8 +348,15 @@ mod tests {
         let a = laplace_1d(50);
         let b = vec![1.0; 50];
         let mut x = vec![0.0; 50];
-        let s = pcg(&a, &b, &mut x, &Preconditioner::Ic0(Ic0::new(&a).unwrap()), 1e-10, 10)
-            .unwrap();
+        let s = pcg(
+            &a,
+            &b,
+            &mut x,
+            &Preconditioner::Ic0(Ic0::new(&a).unwrap()),
+            1e-10,
+            10,
+        )
+        .unwrap();
         assert!(s.iterations <= 2, "{s:?}");
     }
 

@@ -198,9 +198,13 @@ mod tests {
         let mut pts = Vec::new();
         let mut s = 12345u64;
         for _ in 0..500 {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let x = (s >> 11) as f64 / (1u64 << 53) as f64;
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             let y = (s >> 11) as f64 / (1u64 << 53) as f64;
             pts.push(Vector([x, y * 0.5]));
         }

@@ -206,7 +206,9 @@ pub(crate) mod tests {
         let mut s = 7u64;
         for x in p.iter_mut() {
             for k in 0..2 {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 x[k] += ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.3 * l0;
             }
         }

@@ -11,7 +11,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let name = path
         .file_name()
         .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "no file name"))?;
-    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
@@ -48,7 +52,10 @@ pub fn vtu_bytes<const D: usize>(p: &Particles<D>, time: f64) -> Vec<u8> {
         Array::F64("density", 1, p.density.clone()),
         Array::I32("phase", p.phase.iter().map(|&v| v as i32).collect()),
         Array::I32("kind", p.kind.iter().map(|&v| v as i32).collect()),
-        Array::U8("free_surface", p.free_surface.iter().map(|&v| v as u8).collect()),
+        Array::U8(
+            "free_surface",
+            p.free_surface.iter().map(|&v| v as u8).collect(),
+        ),
         Array::F64("number_density", 1, p.number_density.clone()),
         Array::I32("id", p.id.iter().map(|&v| v as i32).collect()),
     ];
@@ -161,8 +168,20 @@ mod tests {
     #[test]
     fn vtu_round_trips_its_arrays() {
         let mut p = Particles::<2>::default();
-        p.push(Vector([0.1, 0.2]), Vector([1.0, -1.0]), Kind::Fluid, 0, 1000.0);
-        p.push(Vector([0.3, 0.4]), Vector([0.0, 0.0]), Kind::Wall, 0, 1000.0);
+        p.push(
+            Vector([0.1, 0.2]),
+            Vector([1.0, -1.0]),
+            Kind::Fluid,
+            0,
+            1000.0,
+        );
+        p.push(
+            Vector([0.3, 0.4]),
+            Vector([0.0, 0.0]),
+            Kind::Wall,
+            0,
+            1000.0,
+        );
         p.pressure = vec![12.5, -3.0];
         let b = vtu_bytes(&p, 0.5);
         let arrays = read_vtu_arrays(&b).unwrap();

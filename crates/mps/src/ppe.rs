@@ -51,14 +51,14 @@ pub fn hs_sum<const D: usize>(i: usize, f: &Fields<D>, re: f64) -> f64 {
 }
 
 /// Right-hand side `b_i` of row `i` (1/s^2), the source of the PPE divided by `rho`:
-/// - PND: `(n*_i - n0)/(n0 dt^2)`;
+/// - PND: `alpha (n*_i - n0)/(n0 dt^2)`, `alpha` the relaxation coefficient;
 /// - HS: `-(norm/dt) sum_j (re/r^3)(r_ij . u*_ij)`, `norm = d/h0` (consistent) or `1/n0`;
 /// - drift control on fluid particles: `+ gamma (n*_i - n0)/(n0 dt^2)`, or ECS.
 pub fn source<const D: usize>(i: usize, f: &Fields<D>, k: &Kernels, s: &Scheme, dt: f64) -> f64 {
     let n0 = k.grad.n0;
     let pnd = (f.number_density[i] - n0) / (n0 * dt * dt);
     match s.source {
-        SourceModel::Pnd => pnd,
+        SourceModel::Pnd => s.pnd_relaxation * pnd,
         SourceModel::Hs => {
             let sum = hs_sum(i, f, k.grad.re);
             let norm = match s.hs_normalization {
@@ -92,7 +92,8 @@ pub fn is_dirichlet<const D: usize>(i: usize, f: &Fields<D>, re_lap: f64) -> boo
         Kind::Wall => {
             let xi = f.pos[i];
             !f.neighbors.of(i).iter().any(|&j| {
-                f.kind[j as usize] == Kind::Fluid && (f.pos[j as usize] - xi).norm2() < re_lap * re_lap
+                f.kind[j as usize] == Kind::Fluid
+                    && (f.pos[j as usize] - xi).norm2() < re_lap * re_lap
             })
         }
     }
@@ -108,7 +109,10 @@ pub fn assemble<const D: usize>(
 ) -> PressureSystem {
     let n = f.pos.len();
     let re = k.lap.re;
-    let dirichlet: Vec<bool> = (0..n).into_par_iter().map(|i| is_dirichlet(i, f, re)).collect();
+    let dirichlet: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|i| is_dirichlet(i, f, re))
+        .collect();
     let mut row_of = vec![NONE; n];
     let mut particle_of = Vec::new();
     for i in 0..n {
@@ -121,7 +125,9 @@ pub fn assemble<const D: usize>(
     let diag_extra = s.compressibility / (dt * dt);
     let rows = particle_of.len();
     const CHUNK: usize = 256;
-    let parts: Vec<(Vec<u32>, Vec<u32>, Vec<f64>, Vec<f64>)> = (0..rows.div_ceil(CHUNK))
+    // Per chunk of rows: (row lengths, columns, values, right-hand sides).
+    type Chunk = (Vec<u32>, Vec<u32>, Vec<f64>, Vec<f64>);
+    let parts: Vec<Chunk> = (0..rows.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(rows));

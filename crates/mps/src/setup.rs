@@ -55,10 +55,13 @@ fn distance_to_segment(p: (f64, f64), a: &[f64], b: &[f64]) -> f64 {
 /// True when point `x` lies inside `shape`; `wall_depth` (m) is the tank wall thickness.
 fn inside<const D: usize>(shape: &ShapeSpec, x: &Vector<D>, wall_depth: f64) -> bool {
     let eps = 1e-9;
-    let in_box = |min: &[f64], max: &[f64]| (0..D).all(|k| x[k] >= min[k] - eps && x[k] < max[k] - eps);
+    let in_box =
+        |min: &[f64], max: &[f64]| (0..D).all(|k| x[k] >= min[k] - eps && x[k] < max[k] - eps);
     match shape {
         ShapeSpec::Rectangle { min, max } => in_box(min, max),
-        ShapeSpec::Circle { center, radius } => (*x - to_vec::<D>(center)).norm2() < radius * radius,
+        ShapeSpec::Circle { center, radius } => {
+            (*x - to_vec::<D>(center)).norm2() < radius * radius
+        }
         ShapeSpec::Polygon { points } => point_in_polygon((x[0], x[1]), points),
         ShapeSpec::Polyline { points, thickness } => points
             .windows(2)
@@ -78,7 +81,11 @@ fn inside<const D: usize>(shape: &ShapeSpec, x: &Vector<D>, wall_depth: f64) -> 
 /// Lattice sites inside a shape.
 fn sites_of<const D: usize>(shape: &ShapeSpec, l0: f64, wall_depth: f64) -> Vec<Site<D>> {
     let (lo, hi) = crate::case::shape_bounds(shape);
-    let pad = if matches!(shape, ShapeSpec::Tank { .. }) { wall_depth } else { 0.0 };
+    let pad = if matches!(shape, ShapeSpec::Tank { .. }) {
+        wall_depth
+    } else {
+        0.0
+    };
     let mut klo = [0i64; D];
     let mut khi = [0i64; D];
     for k in 0..D {
@@ -107,7 +114,10 @@ fn sites_of<const D: usize>(shape: &ShapeSpec, l0: f64, wall_depth: f64) -> Vec<
 }
 
 /// Builds the particles of a case. The fluid comes first, then walls, then dummies.
-pub fn build_particles<const D: usize>(case: &Case, label: &str) -> Result<Particles<D>, CaseError> {
+pub fn build_particles<const D: usize>(
+    case: &Case,
+    label: &str,
+) -> Result<Particles<D>, CaseError> {
     let err = |field: String, value: String, message: String| CaseError {
         file: label.to_string(),
         field,
@@ -244,7 +254,11 @@ pub fn build_particles<const D: usize>(case: &Case, label: &str) -> Result<Parti
             Some(PressureSpec::Hydrostatic { surface }) => {
                 rho * gravity.norm() * (surface - x[D - 1]).max(0.0)
             }
-            Some(PressureSpec::SquarePatch { center, side, omega }) => {
+            Some(PressureSpec::SquarePatch {
+                center,
+                side,
+                omega,
+            }) => {
                 let c = to_vec::<D>(center);
                 let xp = x[0] - (c[0] - side / 2.0);
                 let yp = x[1] - (c[1] - side / 2.0);
@@ -266,10 +280,22 @@ pub fn build_particles<const D: usize>(case: &Case, label: &str) -> Result<Parti
     let mut wall_index: HashMap<Site<D>, u32> = HashMap::new();
     for s in &walls {
         wall_index.insert(*s, p.len() as u32);
-        p.push(site_position(s, l0), Vector::zero(), Kind::Wall, 0, rho_wall);
+        p.push(
+            site_position(s, l0),
+            Vector::zero(),
+            Kind::Wall,
+            0,
+            rho_wall,
+        );
     }
     for s in &dummies {
-        p.push(site_position(s, l0), Vector::zero(), Kind::Dummy, 0, rho_wall);
+        p.push(
+            site_position(s, l0),
+            Vector::zero(),
+            Kind::Dummy,
+            0,
+            rho_wall,
+        );
         let i = p.len() - 1;
         // Backing wall: the nearest wall site (ties: first in offset order).
         let x = site_position(s, l0);

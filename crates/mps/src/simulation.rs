@@ -227,8 +227,7 @@ impl<const D: usize> Simulation<D> {
                     file: label.into(),
                     field: "time.dt_max".into(),
                     value: String::new(),
-                    message: "needed: no gravity and no initial velocity give no time scale"
-                        .into(),
+                    message: "needed: no gravity and no initial velocity give no time scale".into(),
                 })
             }
         };
@@ -307,11 +306,9 @@ impl<const D: usize> Simulation<D> {
             dt
         };
         let remaining = until - self.time;
-        // Land exactly on `until` (an output or end time) rather than stepping past it.
+        // Land exactly on `until` (the end time) rather than stepping past it.
         let step = if remaining < dt * 1.000_001 {
             remaining.max(dt * 1e-6)
-        } else if remaining < 2.0 * dt {
-            0.5 * remaining
         } else {
             dt
         };
@@ -386,7 +383,7 @@ impl<const D: usize> Simulation<D> {
 
         // 1. Neighbours at r^n (with a skin), reordering for locality now and then.
         let t0 = Instant::now();
-        if self.step_count % REORDER_EVERY == 0 {
+        if self.step_count.is_multiple_of(REORDER_EVERY) {
             self.reorder();
         }
         self.neighbors = build_neighbor_list(&self.particles.position, self.cutoff());
@@ -457,12 +454,19 @@ impl<const D: usize> Simulation<D> {
             }
             SolverKind::Ic0Cg => match Ic0::new(&sys.matrix) {
                 Some(f) => Preconditioner::Ic0(f),
-                None => Preconditioner::Jacobi(
-                    sys.matrix.diagonal().iter().map(|d| 1.0 / d).collect(),
-                ),
+                None => {
+                    Preconditioner::Jacobi(sys.matrix.diagonal().iter().map(|d| 1.0 / d).collect())
+                }
             },
         };
-        let solve = pcg(&sys.matrix, &sys.rhs, &mut x, &pre, sv.tolerance, sv.max_iterations);
+        let solve = pcg(
+            &sys.matrix,
+            &sys.rhs,
+            &mut x,
+            &pre,
+            sv.tolerance,
+            sv.max_iterations,
+        );
         self.timers.ppe_solve += t0.elapsed();
         report.solve = match solve {
             Ok(s) => s,
@@ -503,7 +507,12 @@ impl<const D: usize> Simulation<D> {
                 (0..n)
                     .into_par_iter()
                     .filter(|&i| p.kind[i] != Kind::Fluid)
-                    .map(|i| (i, extrapolated_pressure(i, &f, &pressure, g, re).unwrap_or(0.0)))
+                    .map(|i| {
+                        let v = extrapolated_pressure(i, &f, &pressure, g, re).unwrap_or(0.0);
+                        // Walls push, never pull: above the waterline the hydrostatic
+                        // extrapolation into air would turn negative.
+                        (i, v.max(0.0))
+                    })
                     .collect()
             }
             WallPressure::Hydrostatic => (0..n)
@@ -602,8 +611,8 @@ impl<const D: usize> Simulation<D> {
                 let nu = self.phase_viscosity[p.phase[i] as usize];
                 let mut a = g;
                 if nu > 0.0 {
-                    a += laplacian_vector(i, &p.position, &p.velocity, self.neighbors.of(i), k)
-                        * nu;
+                    a +=
+                        laplacian_vector(i, &p.position, &p.velocity, self.neighbors.of(i), k) * nu;
                 }
                 let u = p.velocity[i] + a * dt;
                 (u, p.position[i] + u * dt)
@@ -727,7 +736,11 @@ impl<const D: usize> Simulation<D> {
         let p = &self.particles;
         let l0 = self.l0();
         let ids = |pred: &dyn Fn(usize) -> bool| -> Vec<u32> {
-            (0..pos.len()).filter(|&i| pred(i)).take(8).map(|i| p.id[i]).collect()
+            (0..pos.len())
+                .filter(|&i| pred(i))
+                .take(8)
+                .map(|i| p.id[i])
+                .collect()
         };
         let bad = (0..pos.len())
             .into_par_iter()

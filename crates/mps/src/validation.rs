@@ -13,7 +13,10 @@ pub fn martin_moyce() -> Vec<(f64, f64)> {
         .filter(|l| !l.starts_with('#') && !l.starts_with('T'))
         .filter_map(|l| {
             let mut it = l.split(',');
-            Some((it.next()?.trim().parse().ok()?, it.next()?.trim().parse().ok()?))
+            Some((
+                it.next()?.trim().parse().ok()?,
+                it.next()?.trim().parse().ok()?,
+            ))
         })
         .collect()
 }
@@ -51,9 +54,16 @@ pub fn interpolate(series: &[(f64, f64)], t: f64) -> Option<f64> {
 
 /// Dam-break comparison rows `(T, Z_exp, Z_sim)` at every experimental point the run
 /// covered, and the RMS of `Z_sim - Z_exp`. `front` holds `(t, x_front - wall_x)` (s, m).
-pub fn dam_break_front(front: &[(f64, f64)], column_width: f64, g: f64) -> (Vec<(f64, f64, f64)>, f64) {
+pub fn dam_break_front(
+    front: &[(f64, f64)],
+    column_width: f64,
+    g: f64,
+) -> (Vec<(f64, f64, f64)>, f64) {
     let scale = (2.0 * g / column_width).sqrt();
-    let nd: Vec<(f64, f64)> = front.iter().map(|&(t, x)| (t * scale, x / column_width)).collect();
+    let nd: Vec<(f64, f64)> = front
+        .iter()
+        .map(|&(t, x)| (t * scale, x / column_width))
+        .collect();
     let rows: Vec<(f64, f64, f64)> = martin_moyce()
         .into_iter()
         .filter_map(|(tt, z)| interpolate(&nd, tt).map(|s| (tt, z, s)))
@@ -93,7 +103,10 @@ mod tests {
         let g: f64 = 9.81;
         let l = 0.146;
         let scale = (2.0 * g / l).sqrt();
-        let front: Vec<(f64, f64)> = martin_moyce().iter().map(|&(t, z)| (t / scale, z * l)).collect();
+        let front: Vec<(f64, f64)> = martin_moyce()
+            .iter()
+            .map(|&(t, z)| (t / scale, z * l))
+            .collect();
         let (rows, rms) = dam_break_front(&front, l, g);
         assert_eq!(rows.len(), 14);
         assert!(rms < 1e-12);

@@ -103,13 +103,13 @@ impl<const D: usize> IndexMut<usize> for Vector<D> {
 }
 
 macro_rules! componentwise {
-    ($tr:ident, $f:ident, $op:tt, $tra:ident, $fa:ident) => {
+    ($tr:ident, $f:ident, $op:tt, $tra:ident, $fa:ident, $opa:tt) => {
         impl<const D: usize> $tr for Vector<D> {
             type Output = Self;
             #[inline]
             fn $f(mut self, o: Self) -> Self {
                 for k in 0..D {
-                    self.0[k] = self.0[k] $op o.0[k];
+                    self.0[k] $opa o.0[k];
                 }
                 self
             }
@@ -118,14 +118,14 @@ macro_rules! componentwise {
             #[inline]
             fn $fa(&mut self, o: Self) {
                 for k in 0..D {
-                    self.0[k] = self.0[k] $op o.0[k];
+                    self.0[k] $opa o.0[k];
                 }
             }
         }
     };
 }
-componentwise!(Add, add, +, AddAssign, add_assign);
-componentwise!(Sub, sub, -, SubAssign, sub_assign);
+componentwise!(Add, add, +, AddAssign, add_assign, +=);
+componentwise!(Sub, sub, -, SubAssign, sub_assign, -=);
 
 impl<const D: usize> Mul<f64> for Vector<D> {
     type Output = Self;

@@ -1,0 +1,107 @@
+//! End-to-end tests of the `mps` program.
+
+use std::process::Command;
+
+fn mps() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mps"))
+}
+
+fn write_case(name: &str, text: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("mps_cli_{}_{}", name, std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(format!("{name}.toml"));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn base_case() -> String {
+    mps::examples::example("hydrostatic").unwrap().to_string()
+}
+
+/// A malformed case file gives a one-line error naming the file, the field and the value,
+/// and exits non-zero.
+#[test]
+fn malformed_case_gives_one_line_error_naming_the_field() {
+    let cases = [
+        (
+            "unknown",
+            base_case().replace("spacing = 0.005", "spacing = 0.005\nspaceing = 2"),
+            "spaceing",
+        ),
+        (
+            "negative",
+            base_case().replace("spacing = 0.005", "spacing = -0.005"),
+            "particles.spacing = -0.005",
+        ),
+        (
+            "phase",
+            base_case().replace("phase = \"water\"", "phase = \"oil\""),
+            "fluid.0.phase = \"oil\"",
+        ),
+        (
+            "outside",
+            base_case().replace("max = [0.2, 0.3] }", "max = [0.5, 0.3] }"),
+            "fluid.0.shape",
+        ),
+    ];
+    for (name, text, needle) in cases {
+        let p = write_case(name, &text);
+        let out = mps().args(["run", "-q"]).arg(&p).output().unwrap();
+        assert_eq!(out.status.code(), Some(1), "{name}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
+        assert!(
+            err.contains(needle) && err.contains(&p.display().to_string()),
+            "{name}: {err}"
+        );
+    }
+}
+
+#[test]
+fn missing_file_is_a_clear_error() {
+    let out = mps().args(["run", "no/such/case.toml"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no/such/case.toml") && err.contains("cannot read"),
+        "{err}"
+    );
+}
+
+#[test]
+fn list_names_the_examples_and_a_short_run_writes_paraview_files() {
+    let out = mps().arg("list").output().unwrap();
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("dam_break") && s.contains("hydrostatic"));
+    let dir = std::env::temp_dir().join(format!("mps_cli_run_{}", std::process::id()));
+    let out = mps()
+        .args([
+            "run",
+            "--example",
+            "dam_break",
+            "-q",
+            "--set",
+            "time.max_steps=5",
+            "--set",
+            "particles.spacing=0.0073",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "particles.pvd",
+        "particles_000000.vtu",
+        "metrics.csv",
+        "steps.csv",
+        "summary.toml",
+        "probes.csv",
+    ] {
+        assert!(dir.join(f).exists(), "{f} missing");
+    }
+}

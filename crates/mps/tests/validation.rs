@@ -1,0 +1,66 @@
+//! Validation runs against analytic and experimental references. They take seconds to a
+//! minute in release mode: `cargo test --release -- --ignored` (CI runs them).
+
+mod common;
+use common::{sim, tmp};
+use mps::particles::Kind;
+use mps::run::{run, Silent};
+
+/// Still water, H = 0.3 m, l0 = 5 mm, standard MPS, 3 s: the bottom pressure averaged over
+/// the last second lies within 5 % of rho g H, and no particle leaves the tank.
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn hydrostatic_tank_bottom_pressure() {
+    let mut s = sim("hydrostatic", &[("output.vtu", "false")]);
+    let dir = tmp("hydrostatic");
+    let summary = run(&mut s, &dir, &mut Silent).unwrap();
+    assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
+    let v = &summary.validation[0];
+    eprintln!(
+        "bottom pressure {:.1} Pa vs rho g H {:.1} Pa ({:+.2} %)",
+        v.value,
+        v.reference,
+        100.0 * v.error
+    );
+    assert!(
+        v.error.abs() < 0.05,
+        "bottom pressure off by {:.2} %",
+        100.0 * v.error
+    );
+    let p = &s.particles;
+    for i in 0..p.len() {
+        if p.kind[i] == Kind::Fluid {
+            let x = p.position[i];
+            assert!(
+                x[0] > 0.0 && x[0] < 0.2 && x[1] > 0.0 && x[1] < 0.32,
+                "particle at {x:?}"
+            );
+        }
+    }
+}
+
+/// Dam break, L = 0.146 m at L/l0 = 40 (l0 = 3.65 mm), standard MPS: the surge front against
+/// Martin & Moyce (1952) at every experimental point up to T = 3 has an RMS difference in
+/// Z of at most 0.3, and the comparison CSV is written.
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn dam_break_front_against_martin_moyce() {
+    let mut s = sim("dam_break", &[("output.vtu", "false")]);
+    let dir = tmp("dam_break");
+    let summary = run(&mut s, &dir, &mut Silent).unwrap();
+    assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
+    let csv = std::fs::read_to_string(dir.join("dam_break_front.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .filter(|r: &Vec<f64>| r[0] <= 3.0)
+        .collect();
+    assert!(rows.len() >= 12, "{} points", rows.len());
+    let rms = (rows.iter().map(|r| (r[2] - r[1]).powi(2)).sum::<f64>() / rows.len() as f64).sqrt();
+    eprintln!(
+        "dam break: RMS(Z_sim - Z_exp) = {rms:.3} over {} points up to T = 3",
+        rows.len()
+    );
+    assert!(rms <= 0.3, "RMS {rms}");
+}
