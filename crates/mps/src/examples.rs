@@ -13,6 +13,11 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../../cases/hydrostatic.toml"),
     ),
     (
+        "square_patch",
+        "Rotating square patch of the seed paper (MPS-HS-GC-DS, no gravity, no walls)",
+        include_str!("../../../cases/square_patch.toml"),
+    ),
+    (
         "bench_dam_break",
         "Benchmark: 1.0 x 0.6 m tank, l0 = 5 mm, fixed dt, 1000 steps, no output",
         include_str!("../../../cases/bench_dam_break.toml"),

@@ -185,3 +185,25 @@ fn nan_stops_the_run_with_a_breakdown_record() {
     assert!(record.contains("NotFinite"));
     assert!(dir.join("breakdown_last_good_state.vtu").exists());
 }
+
+/// The square patch starts from the exact pressure field: at the centre -147.34 Pa within
+/// 0.5 % (cases.md), sampled from the particles.
+#[test]
+fn square_patch_initial_centre_pressure() {
+    let s = sim("square_patch", &[]);
+    assert_eq!(s.particles.count(Kind::Fluid), 2500);
+    let p = s.sample_pressure(&Vector([0.0, 0.0])).unwrap();
+    assert!(((p + 147.34) / 147.34).abs() < 0.005, "centre pressure {p}");
+    // Clockwise rotation: angular momentum -rho omega L^4 / 6 per unit depth (lattice sum).
+    let m = mps::diagnostics::Metrics::measure(&s);
+    assert!(
+        ((m.angular_momentum + 166.67) / 166.67).abs() < 0.01,
+        "{}",
+        m.angular_momentum
+    );
+    assert!(
+        ((m.kinetic_energy - 83.33) / 83.33).abs() < 0.01,
+        "{}",
+        m.kinetic_energy
+    );
+}
