@@ -45,3 +45,52 @@ pub struct Fields<'a, const D: usize> {
     /// Neighbour lists (cut-off at least the largest radius).
     pub neighbors: &'a NeighborList,
 }
+
+/// Owned arrays of an all-fluid particle cloud, for unit tests of the stages.
+#[cfg(test)]
+pub(crate) struct Cloud<const D: usize> {
+    pos: Vec<Vector<D>>,
+    vel: Vec<Vector<D>>,
+    kind: Vec<Kind>,
+    density: Vec<f64>,
+    free_surface: Vec<bool>,
+    number_density: Vec<f64>,
+    neighbors: NeighborList,
+}
+
+#[cfg(test)]
+impl<const D: usize> Cloud<D> {
+    /// A cloud of fluid particles (no free surface, number density `nd`), neighbours within
+    /// `cutoff` (m).
+    pub(crate) fn new(
+        pos: Vec<Vector<D>>,
+        vel: Vec<Vector<D>>,
+        density: Vec<f64>,
+        nd: f64,
+        cutoff: f64,
+    ) -> Self {
+        let n = pos.len();
+        let neighbors = crate::neighbors::build_neighbor_list(&pos, cutoff);
+        Cloud {
+            pos,
+            vel,
+            kind: vec![Kind::Fluid; n],
+            density,
+            free_surface: vec![false; n],
+            number_density: vec![nd; n],
+            neighbors,
+        }
+    }
+    /// The view the stages read.
+    pub(crate) fn fields(&self) -> Fields<'_, D> {
+        Fields {
+            pos: &self.pos,
+            vel: &self.vel,
+            kind: &self.kind,
+            density: &self.density,
+            free_surface: &self.free_surface,
+            number_density: &self.number_density,
+            neighbors: &self.neighbors,
+        }
+    }
+}

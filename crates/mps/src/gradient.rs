@@ -94,8 +94,7 @@ pub fn pressure_acceleration<const D: usize>(
 mod tests {
     use super::*;
     use crate::case::SchemeSpec;
-    use crate::neighbors::build_neighbor_list;
-    use crate::particles::Kind;
+    use crate::fields::Cloud;
 
     fn scheme(name: &str) -> Scheme {
         let sp = SchemeSpec {
@@ -130,21 +129,15 @@ mod tests {
         }
         let n = pos.len();
         let k = Kernels::new::<2>(l0, 2.1, 3.1);
-        let nl = build_neighbor_list(&pos, k.lap.re);
-        let vel = vec![Vector::zero(); n];
-        let kind = vec![Kind::Fluid; n];
         let rho = vec![1000.0; n];
-        let fs = vec![false; n];
-        let nd = vec![0.0; n];
-        let f = Fields {
-            pos: &pos,
-            vel: &vel,
-            kind: &kind,
-            density: &rho,
-            free_surface: &fs,
-            number_density: &nd,
-            neighbors: &nl,
-        };
+        let cloud = Cloud::new(
+            pos.clone(),
+            vec![Vector::zero(); n],
+            rho.clone(),
+            0.0,
+            k.lap.re,
+        );
+        let f = cloud.fields();
         let s = scheme("CMPS-HS");
         let carries = vec![true; n];
         let ph: Vec<f64> = (0..n)

@@ -202,7 +202,7 @@ pub fn assemble<const D: usize>(
 mod tests {
     use super::*;
     use crate::case::SchemeSpec;
-    use crate::neighbors::build_neighbor_list;
+    use crate::fields::Cloud;
 
     /// equations.md s.4: on a 2D lattice with `u = eps r` (div u = 2 eps) the consistent HS
     /// source, times rho, equals `2 rho eps / dt`; the published `1/n0` form over-weights it by
@@ -220,21 +220,9 @@ mod tests {
         let eps = -0.3;
         let vel: Vec<Vector<2>> = pos.iter().map(|x| (*x - pos[c]) * eps).collect();
         let n = pos.len();
-        let nl = build_neighbor_list(&pos, 3.1 * l0);
-        let kind = vec![Kind::Fluid; n];
-        let rho = vec![1000.0; n];
-        let fs = vec![false; n];
         let k = Kernels::new::<2>(l0, 2.1, 3.1);
-        let nd = vec![k.grad.n0; n];
-        let f = Fields {
-            pos: &pos,
-            vel: &vel,
-            kind: &kind,
-            density: &rho,
-            free_surface: &fs,
-            number_density: &nd,
-            neighbors: &nl,
-        };
+        let cloud = Cloud::new(pos, vel, vec![1000.0; n], k.grad.n0, 3.1 * l0);
+        let f = cloud.fields();
         let dt = 1e-3;
         let mut spec = SchemeSpec {
             name: "MPS-HS-GC".into(),

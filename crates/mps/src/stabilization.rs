@@ -80,25 +80,13 @@ pub fn ds_acceleration<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::neighbors::build_neighbor_list;
+    use crate::fields::Cloud;
 
     fn pair(dist: f64, rho: [f64; 2], weighting: DsWeighting) -> [Vector<2>; 2] {
         let l0 = 0.01;
         let pos = vec![Vector([0.0, 0.0]), Vector([dist * l0, 0.0])];
-        let nl = build_neighbor_list(&pos, 3.1 * l0);
-        let vel = vec![Vector::zero(); 2];
-        let kind = vec![Kind::Fluid; 2];
-        let fs = vec![false; 2];
-        let nd = vec![0.0; 2];
-        let f = Fields {
-            pos: &pos,
-            vel: &vel,
-            kind: &kind,
-            density: &rho,
-            free_surface: &fs,
-            number_density: &nd,
-            neighbors: &nl,
-        };
+        let cloud = Cloud::new(pos, vec![Vector::zero(); 2], rho.to_vec(), 0.0, 3.1 * l0);
+        let f = cloud.fields();
         let k = Kernels::new::<2>(l0, 2.1, 3.1);
         let ds = DynamicStabilization {
             alpha: 0.9,
