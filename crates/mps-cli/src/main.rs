@@ -12,6 +12,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 mod bench;
+mod compare;
 
 /// Moving Particle Semi-implicit (MPS) solver for incompressible free-surface and multiphase flow.
 #[derive(Parser)]
@@ -29,6 +30,8 @@ enum Command {
     List,
     /// Benchmark a case: ms/step, particle-steps/s, split of the step, 2-thread speed-up.
     Bench(bench::BenchArgs),
+    /// Run a case once per scheme and compare breakdown and stability metrics.
+    Compare(compare::CompareArgs),
 }
 
 /// Where a case comes from, and how to change it.
@@ -260,6 +263,7 @@ fn main() -> ExitCode {
             Ok(ExitCode::SUCCESS)
         }
         Command::Bench(a) => bench::cmd_bench(a),
+        Command::Compare(a) => compare::cmd_compare(a),
     };
     match r {
         Ok(c) => c,

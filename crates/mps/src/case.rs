@@ -293,6 +293,9 @@ pub struct SchemeSpec {
     pub gradient: Option<GradientModel>,
     /// Gradient correction override.
     pub gradient_correction: Option<bool>,
+    /// GC falls back to `d I` where the moment matrix's determinant is below this fraction
+    /// of the interior lattice value (default 0.2).
+    pub gc_min_determinant: Option<f64>,
     /// PPE source override.
     pub source: Option<SourceModel>,
     /// HS normalisation.
@@ -309,6 +312,8 @@ pub struct SchemeSpec {
     pub surface_beta: Option<f64>,
     /// Optional neighbour-count criterion: surface when count < ratio * lattice count.
     pub surface_count_ratio: Option<f64>,
+    /// Wall particles with `n* < beta n0` (a side open to the air) are Dirichlet `p = 0`.
+    pub wall_surface_test: Option<bool>,
     /// Pair density average.
     pub density_average: Option<DensityAverage>,
     /// Density used in the pressure gradient.

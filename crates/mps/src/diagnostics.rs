@@ -38,6 +38,8 @@ pub struct Metrics {
     pub ppe_residual: f64,
     /// Largest fluid speed (m/s).
     pub max_speed: f64,
+    /// Root-mean-square fluid speed (m/s).
+    pub rms_speed: f64,
     /// DS-active pairs in the last step.
     pub ds_active: u64,
     /// Fluid particles on the free surface.
@@ -45,7 +47,7 @@ pub struct Metrics {
 }
 
 /// CSV header matching [`Metrics::csv_row`].
-pub const METRICS_HEADER: &str = "time,step,dt,kinetic_energy,potential_energy,momentum_x,momentum_y,angular_momentum,min_pair_distance_l0,close_pairs,nd_mean,nd_spread,ppe_iterations,ppe_residual,max_speed,ds_active,surface_particles";
+pub const METRICS_HEADER: &str = "time,step,dt,kinetic_energy,potential_energy,momentum_x,momentum_y,angular_momentum,min_pair_distance_l0,close_pairs,nd_mean,nd_spread,ppe_iterations,ppe_residual,max_speed,rms_speed,ds_active,surface_particles";
 
 impl Metrics {
     /// Measures the current state of a simulation.
@@ -58,6 +60,8 @@ impl Metrics {
         #[derive(Default, Clone, Copy)]
         struct Acc {
             ke: f64,
+            u2: f64,
+            n: f64,
             pe: f64,
             mom: [f64; 2],
             ang: f64,
@@ -77,6 +81,8 @@ impl Metrics {
                     let u = p.velocity[i];
                     let x = p.position[i];
                     a.ke += 0.5 * m * u.norm2();
+                    a.u2 += u.norm2();
+                    a.n += 1.0;
                     a.pe -= m * g.dot(&x);
                     a.mom[0] += m * u[0];
                     a.mom[1] += m * u[1];
@@ -96,6 +102,8 @@ impl Metrics {
         let mut t = Acc::default();
         for a in parts {
             t.ke += a.ke;
+            t.u2 += a.u2;
+            t.n += a.n;
             t.pe += a.pe;
             t.mom[0] += a.mom[0];
             t.mom[1] += a.mom[1];
@@ -132,6 +140,7 @@ impl Metrics {
             ppe_iterations: r.solve.iterations,
             ppe_residual: r.solve.residual,
             max_speed: r.max_speed,
+            rms_speed: if t.n > 0.0 { (t.u2 / t.n).sqrt() } else { 0.0 },
             ds_active: r.ds_active,
             surface_particles: t.surf,
         }
@@ -140,7 +149,7 @@ impl Metrics {
     /// One CSV row (see [`METRICS_HEADER`]).
     pub fn csv_row(&self) -> String {
         format!(
-            "{:.9},{},{:.6e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.6},{},{:.6},{:.6e},{},{:.3e},{:.6e},{},{}",
+            "{:.9},{},{:.6e},{:.9e},{:.9e},{:.9e},{:.9e},{:.9e},{:.6},{},{:.6},{:.6e},{},{:.3e},{:.6e},{:.6e},{},{}",
             self.time,
             self.step,
             self.dt,
@@ -156,6 +165,7 @@ impl Metrics {
             self.ppe_iterations,
             self.ppe_residual,
             self.max_speed,
+            self.rms_speed,
             self.ds_active,
             self.surface_particles
         )
@@ -194,19 +204,4 @@ pub fn leading_particle<const D: usize>(sim: &Simulation<D>) -> f64 {
         .filter(|&i| p.kind[i] == Kind::Fluid)
         .map(|i| p.position[i][0])
         .fold(f64::MIN, f64::max)
-}
-
-/// Root-mean-square fluid speed (m/s).
-pub fn rms_speed<const D: usize>(sim: &Simulation<D>) -> f64 {
-    let p = &sim.particles;
-    let (s, n) = (0..p.len())
-        .filter(|&i| p.kind[i] == Kind::Fluid)
-        .fold((0.0, 0usize), |(s, n), i| {
-            (s + p.velocity[i].norm2(), n + 1)
-        });
-    if n == 0 {
-        0.0
-    } else {
-        (s / n as f64).sqrt()
-    }
 }

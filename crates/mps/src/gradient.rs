@@ -47,7 +47,14 @@ pub fn correction_tensor<const D: usize>(
     s: &Scheme,
 ) -> Matrix<D> {
     if s.gradient_correction {
-        gradient_correction(i, f.pos, f.neighbors.of(i), &k.grad, |j| carries[j], 0.2)
+        gradient_correction(
+            i,
+            f.pos,
+            f.neighbors.of(i),
+            &k.grad,
+            |j| carries[j],
+            s.gc_min_determinant,
+        )
     } else {
         Matrix::scaled_identity(D as f64)
     }

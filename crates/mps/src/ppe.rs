@@ -83,7 +83,8 @@ pub fn source<const D: usize>(i: usize, f: &Fields<D>, k: &Kernels, s: &Scheme, 
     }
 }
 
-/// True when particle `i` is a Dirichlet (`p = 0`) particle: free-surface fluid, or a wall
+/// True when particle `i` is a Dirichlet (`p = 0`) particle: free-surface fluid, a wall
+/// particle flagged by the surface test (open to the air above the waterline), or a wall
 /// particle with no fluid within re_lap ("dry").
 pub fn is_dirichlet<const D: usize>(i: usize, f: &Fields<D>, re_lap: f64) -> bool {
     match f.kind[i] {
@@ -91,10 +92,11 @@ pub fn is_dirichlet<const D: usize>(i: usize, f: &Fields<D>, re_lap: f64) -> boo
         Kind::Dummy => true,
         Kind::Wall => {
             let xi = f.pos[i];
-            !f.neighbors.of(i).iter().any(|&j| {
-                f.kind[j as usize] == Kind::Fluid
-                    && (f.pos[j as usize] - xi).norm2() < re_lap * re_lap
-            })
+            f.free_surface[i]
+                || !f.neighbors.of(i).iter().any(|&j| {
+                    f.kind[j as usize] == Kind::Fluid
+                        && (f.pos[j as usize] - xi).norm2() < re_lap * re_lap
+                })
         }
     }
 }

@@ -78,6 +78,18 @@ pub struct RunSummary {
     pub stages: Vec<(String, f64)>,
     /// Rayon threads used.
     pub threads: usize,
+    /// Kinetic energy at the start and at the end (J, per unit depth in 2D).
+    pub kinetic_energy: (f64, f64),
+    /// Angular momentum about the origin at the start and at the end (kg m^2/s).
+    pub angular_momentum: (f64, f64),
+    /// Closest fluid pair over the whole run, in units of l0.
+    pub min_pair_distance_l0: f64,
+    /// Spread (std) of n/n0 over interior fluid particles at the end.
+    pub nd_spread_end: f64,
+    /// RMS fluid speed at the end (m/s).
+    pub rms_speed_end: f64,
+    /// Each probe's pressure at the start and at the end (Pa).
+    pub probes: Vec<(String, f64, f64)>,
 }
 
 struct Recorder {
@@ -189,6 +201,8 @@ pub fn run<const D: usize>(
     }
     sample_probes(sim, &mut rec);
     rec.output(sim)?;
+    let m0 = Metrics::measure(sim);
+    let mut min_pair = f64::INFINITY;
 
     let start = Instant::now();
     let end = case.time.end;
@@ -206,6 +220,7 @@ pub fn run<const D: usize>(
         match sim.step(end) {
             Ok(r) => {
                 iterations_total += r.solve.iterations as u64;
+                min_pair = min_pair.min(r.min_pair_distance / sim.l0());
                 rec.steps.push(format!(
                     "{},{:.9},{:.6e},{},{},{:.3e},{},{:.6},{},{:.6e},{}",
                     sim.step_count,
@@ -321,6 +336,7 @@ pub fn run<const D: usize>(
         None => {}
     }
     let total = sim.particles.len();
+    let m1 = Metrics::measure(sim);
     let summary = RunSummary {
         case: case.name.clone(),
         scheme: sim.scheme.name.clone(),
@@ -344,6 +360,19 @@ pub fn run<const D: usize>(
             .map(|(n, d)| (n.to_string(), d.as_secs_f64()))
             .collect(),
         threads: rayon::current_num_threads(),
+        kinetic_energy: (m0.kinetic_energy, m1.kinetic_energy),
+        angular_momentum: (m0.angular_momentum, m1.angular_momentum),
+        min_pair_distance_l0: min_pair,
+        nd_spread_end: m1.nd_spread,
+        rms_speed_end: m1.rms_speed,
+        probes: probes
+            .iter()
+            .enumerate()
+            .map(|(k, (name, _))| {
+                let s = &rec.probe_series[k];
+                (name.clone(), s[0].1, s[s.len() - 1].1)
+            })
+            .collect(),
     };
     let text = toml::to_string(&summary).map_err(|e| io::Error::other(e.to_string()))?;
     write_atomic(&out.join("summary.toml"), text.as_bytes())?;

@@ -272,13 +272,28 @@ impl<const D: usize> Simulation<D> {
         self.particles.permute(&order);
     }
 
-    /// Recomputes number density and free-surface flags at the current positions (for output
-    /// of the initial state and after a restart).
+    /// Recomputes number density, free-surface flags and wall pressures at the current
+    /// positions (for output of the initial state and after a restart).
     pub fn refresh_diagnostic_fields(&mut self) {
         self.neighbors = build_neighbor_list(&self.particles.position, self.cutoff());
         let (nd, fs) = self.density_and_surface(&self.particles.position.clone());
         self.particles.number_density = nd;
         self.particles.free_surface = fs;
+        if self.scheme.wall_pressure == WallPressure::Extrapolated {
+            let f = self.fields();
+            let re = self.kernels.lap.re;
+            let p = &self.particles;
+            let walls: Vec<(usize, f64)> = (0..p.len())
+                .filter(|&i| p.kind[i] != Kind::Fluid)
+                .map(|i| {
+                    let v = extrapolated_pressure(i, &f, &p.pressure, self.gravity, re);
+                    (i, v.unwrap_or(0.0).max(0.0))
+                })
+                .collect();
+            for (i, v) in walls {
+                self.particles.pressure[i] = v;
+            }
+        }
     }
 
     /// The time step (s): fixed, or `min(dt_max, C l0 / u_max, 0.1 l0^2 / nu)`.
@@ -330,7 +345,12 @@ impl<const D: usize> Simulation<D> {
             .into_par_iter()
             .map(|i| {
                 let nd = number_density(i, pos, nl.of(i), k.grad.re);
-                let surface = kind[i] == Kind::Fluid
+                let tested = match kind[i] {
+                    Kind::Fluid => true,
+                    Kind::Wall => s.wall_surface_test,
+                    Kind::Dummy => false,
+                };
+                let surface = tested
                     && (nd < s.surface_beta * n0
                         || (count_floor > 0.0 && {
                             let re2 = k.grad.re * k.grad.re;

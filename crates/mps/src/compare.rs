@@ -1,0 +1,116 @@
+//! Scheme comparison: the same case run once per scheme, summarised side by side (the
+//! paper's question: which scheme breaks down, when, and how well it keeps the invariants).
+
+use crate::run::RunSummary;
+
+/// One scheme's run in a comparison.
+#[derive(Clone, Debug)]
+pub struct SchemeRun {
+    /// Scheme preset name.
+    pub scheme: String,
+    /// Its run summary.
+    pub summary: RunSummary,
+}
+
+fn ratio(pair: (f64, f64)) -> f64 {
+    if pair.0 != 0.0 {
+        pair.1 / pair.0
+    } else {
+        f64::NAN
+    }
+}
+
+/// The comparison as a Markdown table: per scheme, breakdown time and reason (or none), time
+/// reached, kinetic energy and angular momentum at the end over their initial values, the
+/// closest pair over the run, the n/n0 spread and RMS speed at the end, and every probe at
+/// the start and at the end.
+pub fn markdown_table(runs: &[SchemeRun]) -> String {
+    let probes: Vec<String> = runs
+        .first()
+        .map(|r| r.summary.probes.iter().map(|p| p.0.clone()).collect())
+        .unwrap_or_default();
+    let mut s = String::from(
+        "| scheme | breakdown | t reached (s) | KE end/start | L end/start | min pair (l0) | n/n0 spread | RMS speed (m/s) |",
+    );
+    for p in &probes {
+        s.push_str(&format!(" {p} start (Pa) | {p} end (Pa) |"));
+    }
+    s.push_str("\n|---|---|---|---|---|---|---|---|");
+    for _ in &probes {
+        s.push_str("---|---|");
+    }
+    s.push('\n');
+    for r in runs {
+        let m = &r.summary;
+        let b = match (&m.breakdown_time, &m.breakdown) {
+            (Some(t), Some(why)) => {
+                let reason = why.split(": ").last().unwrap_or(why);
+                format!("t = {t:.3} s: {reason}")
+            }
+            _ => "none".to_string(),
+        };
+        s.push_str(&format!(
+            "| {} | {} | {:.3} | {:.4} | {:.4} | {:.3} | {:.4} | {:.4} |",
+            r.scheme,
+            b,
+            m.time,
+            ratio(m.kinetic_energy),
+            ratio(m.angular_momentum),
+            m.min_pair_distance_l0,
+            m.nd_spread_end,
+            m.rms_speed_end
+        ));
+        for p in &m.probes {
+            s.push_str(&format!(" {:.2} | {:.2} |", p.1, p.2));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The comparison as CSV (one row per scheme).
+pub fn csv_table(runs: &[SchemeRun]) -> String {
+    let mut s = String::from("scheme,breakdown_time,breakdown,time_reached,ke_start,ke_end,angular_momentum_start,angular_momentum_end,min_pair_distance_l0,nd_spread_end,rms_speed_end\n");
+    for r in runs {
+        let m = &r.summary;
+        s.push_str(&format!(
+            "{},{},{},{:.6},{:.6e},{:.6e},{:.6e},{:.6e},{:.4},{:.5},{:.5e}\n",
+            r.scheme,
+            m.breakdown_time
+                .map(|t| format!("{t:.6}"))
+                .unwrap_or_default(),
+            m.breakdown.clone().unwrap_or_default().replace(',', ";"),
+            m.time,
+            m.kinetic_energy.0,
+            m.kinetic_energy.1,
+            m.angular_momentum.0,
+            m.angular_momentum.1,
+            m.min_pair_distance_l0,
+            m.nd_spread_end,
+            m.rms_speed_end
+        ));
+    }
+    s
+}
+
+/// Joins the per-scheme `metrics.csv` texts into one time series with a leading scheme column.
+pub fn join_metrics(parts: &[(String, String)]) -> String {
+    let mut out = String::new();
+    for (k, (scheme, text)) in parts.iter().enumerate() {
+        for (l, line) in text.lines().enumerate() {
+            if l == 0 {
+                if k == 0 {
+                    out.push_str("scheme,");
+                    out.push_str(line);
+                    out.push('\n');
+                }
+                continue;
+            }
+            out.push_str(scheme);
+            out.push(',');
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
+}
