@@ -314,6 +314,9 @@ pub struct SchemeSpec {
     pub surface_count_ratio: Option<f64>,
     /// Wall particles with `n* < beta n0` (a side open to the air) are Dirichlet `p = 0`.
     pub wall_surface_test: Option<bool>,
+    /// Count the missing part of a PPE row's neighbourhood as air at `p = 0` (Dirichlet)
+    /// rather than leaving it out (zero gradient).
+    pub air_ghosts: Option<bool>,
     /// Pair density average.
     pub density_average: Option<DensityAverage>,
     /// Density used in the pressure gradient.

@@ -55,6 +55,8 @@ pub struct Scheme {
     pub surface_count_ratio: Option<f64>,
     /// Wall particles take the number-density surface test.
     pub wall_surface_test: bool,
+    /// PPE rows count their missing neighbourhood as air at p = 0.
+    pub air_ghosts: bool,
     /// Pair density average.
     pub density_average: DensityAverage,
     /// Density in the gradient.
@@ -226,6 +228,7 @@ impl Scheme {
             // dam-break front RMS rose from 0.280 to 0.302 with it (the dry wall under the
             // thin front stops pushing).
             wall_surface_test: s.wall_surface_test.unwrap_or(source != SourceModel::Pnd),
+            air_ghosts: s.air_ghosts.unwrap_or(source != SourceModel::Pnd),
             density_average: s.density_average.unwrap_or(DensityAverage::Arithmetic),
             gradient_density: s.gradient_density.unwrap_or(GradientDensity::Pair),
             wall_pressure: s.wall_pressure.unwrap_or(WallPressure::Extrapolated),

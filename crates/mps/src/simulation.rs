@@ -528,10 +528,10 @@ impl<const D: usize> Simulation<D> {
                     .into_par_iter()
                     .filter(|&i| p.kind[i] != Kind::Fluid)
                     .map(|i| {
-                        let v = extrapolated_pressure(i, &f, &pressure, g, re).unwrap_or(0.0);
-                        // Walls push, never pull: above the waterline the hydrostatic
-                        // extrapolation into air would turn negative.
-                        (i, v.max(0.0))
+                        (
+                            i,
+                            extrapolated_pressure(i, &f, &pressure, g, re).unwrap_or(0.0),
+                        )
                     })
                     .collect()
             }
@@ -545,14 +545,22 @@ impl<const D: usize> Simulation<D> {
                 .collect(),
             WallPressure::None => Vec::new(),
         };
-        for (i, v) in boundary {
-            pressure[i] = if clamp { v.max(0.0) } else { v };
-        }
-        let carries: Vec<bool> = p
+        let mut carries: Vec<bool> = p
             .kind
             .iter()
             .map(|k| *k != Kind::Dummy || wall_model != WallPressure::None)
             .collect();
+        for (i, v) in boundary {
+            if wall_model == WallPressure::Extrapolated {
+                // A wall particle with no fluid pressure behind it (above the waterline the
+                // extrapolation turns negative) is in air: it neither pushes nor pulls and
+                // leaves the gradient stencil, as the air on the fluid side does.
+                carries[i] = v > 0.0;
+                pressure[i] = v.max(0.0);
+            } else {
+                pressure[i] = if clamp { v.max(0.0) } else { v };
+            }
+        }
         let ph: Vec<f64> = if matches!(self.scheme.gradient, GradientModel::Taylor) {
             Vec::new()
         } else {
