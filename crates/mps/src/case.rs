@@ -321,6 +321,9 @@ pub struct SchemeSpec {
     pub density_average: Option<DensityAverage>,
     /// Density used in the pressure gradient.
     pub gradient_density: Option<GradientDensity>,
+    /// Smooth the density near interfaces for the PPE coefficient and the gradient:
+    /// `rho~_i = (n0 rho_i + sum_j w_ij rho_j) / (n0 + sum_j w_ij)` over re_grad.
+    pub density_smoothing: Option<bool>,
     /// Dummy-particle pressure model.
     pub wall_pressure: Option<WallPressure>,
     /// Artificial compressibility `kappa` (1/Pa, rho-scaled) on the PPE diagonal.
@@ -509,10 +512,18 @@ pub enum PressureSpec {
         /// Pressure (Pa).
         value: f64,
     },
-    /// `p = rho |g| (surface - y)` below a free surface at height `surface` (m).
+    /// `p = offset + rho |g| (surface - y)`: hydrostatic below height `surface` (m), plus
+    /// `offset` (Pa), the weight of any layers above (e.g. a lighter layer on a heavy one).
     Hydrostatic {
-        /// Free-surface height (m).
+        /// Height of this layer's top, the free surface for a single layer (m).
         surface: f64,
+        /// Pressure at `surface` (Pa), default 0.
+        #[serde(default)]
+        offset: f64,
+        /// Density of the column above (kg/m^3); default the region's own phase density
+        /// (set it to the surrounding fluid's for a group immersed in another phase).
+        #[serde(default)]
+        density: Option<f64>,
     },
     /// Exact pressure of a rotating square patch (cases.md): `lap p = 2 rho omega^2`, 0 on edges.
     SquarePatch {
@@ -609,20 +620,46 @@ pub enum ValidationSpec {
         #[serde(default)]
         wall_x: f64,
     },
-    /// Bottom pressure of still water against `rho g H`.
+    /// Bottom pressure of still water against `rho g H` (or a given reference).
     Hydrostatic {
         /// Water depth `H` (m).
         depth: f64,
+        /// Reference bottom pressure (Pa); default `rho g H` with the first phase's density.
+        #[serde(default)]
+        reference: Option<f64>,
         /// Probe name that samples the bottom pressure.
         probe: String,
         /// Averaging window at the end of the run (s).
         #[serde(default = "default_window")]
         window: f64,
     },
+    /// Settling or surfacing groups: heavier groups must reach the bottom, lighter ones the
+    /// free surface; their early acceleration is compared with `g |rho_g - rho_w| /
+    /// (rho_g + rho_w)` (a circle in unbounded fluid, cases.md), rho_w the first phase's.
+    Groups {
+        /// Height of the tank bottom (m).
+        bottom: f64,
+        /// Height of the initial free surface (m).
+        surface: f64,
+        /// A group has arrived when its centroid is this close to its target (m).
+        #[serde(default = "default_group_distance")]
+        distance: f64,
+        /// Window for the early acceleration, from rest (s).
+        #[serde(default = "default_early_time")]
+        early_time: f64,
+    },
 }
 
 fn default_window() -> f64 {
     1.0
+}
+
+fn default_group_distance() -> f64 {
+    0.03
+}
+
+fn default_early_time() -> f64 {
+    0.05
 }
 
 /// Sets `key` (dotted path; numbers index arrays, e.g. `fluid.0.phase`) to `value` in `table`.

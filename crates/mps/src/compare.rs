@@ -29,13 +29,20 @@ pub fn markdown_table(runs: &[SchemeRun]) -> String {
         .first()
         .map(|r| r.summary.probes.iter().map(|p| p.0.clone()).collect())
         .unwrap_or_default();
+    let has_groups = runs.iter().any(|r| !r.summary.groups.is_empty());
     let mut s = String::from(
-        "| scheme | breakdown | t reached (s) | KE end/start | L end/start | min pair (l0) | n/n0 spread | RMS speed (m/s) |",
+        "| scheme | breakdown | t reached (s) | KE end (J) | KE end/start | L end/start | min pair (l0) | n/n0 spread | RMS speed (m/s) |",
     );
+    if has_groups {
+        s.push_str(" group arrival (s) | stray at end |");
+    }
     for p in &probes {
         s.push_str(&format!(" {p} start (Pa) | {p} end (Pa) |"));
     }
-    s.push_str("\n|---|---|---|---|---|---|---|---|");
+    s.push_str("\n|---|---|---|---|---|---|---|---|---|");
+    if has_groups {
+        s.push_str("---|---|");
+    }
     for _ in &probes {
         s.push_str("---|---|");
     }
@@ -50,16 +57,30 @@ pub fn markdown_table(runs: &[SchemeRun]) -> String {
             _ => "none".to_string(),
         };
         s.push_str(&format!(
-            "| {} | {} | {:.3} | {:.4} | {:.4} | {:.3} | {:.4} | {:.4} |",
+            "| {} | {} | {:.3} | {:.4e} | {:.4} | {:.4} | {:.3} | {:.4} | {:.4} |",
             r.scheme,
             b,
             m.time,
+            m.kinetic_energy.1,
             ratio(m.kinetic_energy),
             ratio(m.angular_momentum),
             m.min_pair_distance_l0,
             m.nd_spread_end,
             m.rms_speed_end
         ));
+        if has_groups {
+            let arrivals: Vec<String> = m
+                .groups
+                .iter()
+                .map(|g| match g.arrival_time {
+                    Some(t) => format!("{t:.2}"),
+                    None => "-".into(),
+                })
+                .collect();
+            let stray: usize = m.groups.iter().map(|g| g.stray_end).sum();
+            let total: usize = m.groups.iter().map(|g| g.particles).sum();
+            s.push_str(&format!(" {} | {stray} / {total} |", arrivals.join(", ")));
+        }
         for p in &m.probes {
             s.push_str(&format!(" {:.2} | {:.2} |", p.1, p.2));
         }

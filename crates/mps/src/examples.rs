@@ -18,6 +18,21 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../../cases/square_patch.toml"),
     ),
     (
+        "two_layer",
+        "Still two-layer tank (2650 under 1000 kg/m^3) that must stay at rest",
+        include_str!("../../../cases/two_layer.toml"),
+    ),
+    (
+        "settling",
+        "Settling of heavier fluid groups in water (seed paper 3.2.1)",
+        include_str!("../../../cases/settling.toml"),
+    ),
+    (
+        "surfacing",
+        "Surfacing of lighter fluid groups in water (seed paper 3.2.2)",
+        include_str!("../../../cases/surfacing.toml"),
+    ),
+    (
         "bench_dam_break",
         "Benchmark: 1.0 x 0.6 m tank, l0 = 5 mm, fixed dt, 1000 steps, no output",
         include_str!("../../../cases/bench_dam_break.toml"),

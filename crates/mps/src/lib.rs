@@ -21,6 +21,7 @@ pub mod diagnostics;
 pub mod examples;
 pub mod fields;
 pub mod gradient;
+pub mod groups;
 pub mod kernel;
 pub mod linsolve;
 pub mod neighbors;

@@ -4,6 +4,7 @@
 
 use crate::case::ValidationSpec;
 use crate::diagnostics::{front_position, Metrics, METRICS_HEADER};
+use crate::groups::{group_states, pressure_noise, GroupState};
 use crate::output::{pvd_bytes, vtu_bytes, write_atomic};
 use crate::particles::Kind;
 use crate::simulation::{Breakdown, Simulation, StepReport};
@@ -90,6 +91,24 @@ pub struct RunSummary {
     pub rms_speed_end: f64,
     /// Each probe's pressure at the start and at the end (Pa).
     pub probes: Vec<(String, f64, f64)>,
+    /// Fluid groups: arrival times, stray particles, final centroids.
+    pub groups: Vec<GroupSummary>,
+}
+
+/// Summary of one fluid group over a run.
+#[derive(Clone, Debug, Serialize)]
+pub struct GroupSummary {
+    /// Group label from the case file.
+    pub name: String,
+    /// Particles in the group.
+    pub particles: usize,
+    /// Time its centroid came within the validation distance of its target (bottom for a
+    /// group heavier than the first phase, free surface for a lighter one), if it did (s).
+    pub arrival_time: Option<f64>,
+    /// Stray particles (no same-phase neighbour within re_grad) at the end.
+    pub stray_end: usize,
+    /// Centroid at the start and at the end (m).
+    pub centroid: ((f64, f64), (f64, f64)),
 }
 
 struct Recorder {
@@ -101,6 +120,10 @@ struct Recorder {
     probes: Vec<String>,
     probe_series: Vec<Vec<(f64, f64)>>,
     front: Vec<(f64, f64)>,
+    group_names: Vec<String>,
+    /// Per step: time and each group's centroid (x, y).
+    group_series: Vec<(f64, Vec<(f64, f64)>)>,
+    group_rows: Vec<String>,
 }
 
 impl Recorder {
@@ -116,8 +139,45 @@ impl Recorder {
     fn output<const D: usize>(&mut self, sim: &Simulation<D>) -> io::Result<()> {
         let k = self.metrics.len();
         self.snapshot(sim, &format!("particles_{k:06}.vtu"))?;
-        self.metrics.push(Metrics::measure(sim).csv_row());
+        let m = Metrics::measure(sim);
+        self.metrics.push(m.csv_row());
+        if !self.group_names.is_empty() {
+            let states = group_states(sim, self.group_names.len());
+            let mut row = format!("{:.9}", sim.time);
+            for g in &states {
+                row.push_str(&format!(
+                    ",{:.6e},{:.6e},{:.6e},{}",
+                    g.centroid[0],
+                    g.centroid[D - 1],
+                    g.velocity.norm(),
+                    g.stray
+                ));
+            }
+            let total: usize = states.iter().map(|g| g.count).sum();
+            let stray: usize = states.iter().map(|g| g.stray).sum();
+            row.push_str(&format!(
+                ",{:.6e},{:.6e},{:.6e},{:.6e}",
+                stray as f64 / total.max(1) as f64,
+                m.momentum_x,
+                m.momentum_y,
+                pressure_noise(sim)
+            ));
+            self.group_rows.push(row);
+        }
         self.flush_series()
+    }
+
+    fn record_groups<const D: usize>(&mut self, sim: &Simulation<D>) {
+        if !self.group_names.is_empty() {
+            let states = group_states(sim, self.group_names.len());
+            self.group_series.push((
+                sim.time,
+                states
+                    .iter()
+                    .map(|g| (g.centroid[0], g.centroid[D - 1]))
+                    .collect(),
+            ));
+        }
     }
 
     fn flush_series(&self) -> io::Result<()> {
@@ -143,6 +203,17 @@ impl Recorder {
             write_atomic(
                 &self.out.join("probes.csv"),
                 self.probes.join("\n").as_bytes(),
+            )?;
+        }
+        if !self.group_names.is_empty() {
+            let mut header = String::from("time");
+            for n in &self.group_names {
+                header.push_str(&format!(",{n}_x,{n}_y,{n}_speed,{n}_stray"));
+            }
+            header.push_str(",stray_fraction,momentum_x,momentum_y,pressure_noise");
+            write_atomic(
+                &self.out.join("groups.csv"),
+                join(&header, &self.group_rows).as_bytes(),
             )?;
         }
         Ok(())
@@ -182,6 +253,9 @@ pub fn run<const D: usize>(
             .join(",")],
         probe_series: vec![Vec::new(); probes.len()],
         front: Vec::new(),
+        group_names: crate::setup::group_names(&case),
+        group_series: Vec::new(),
+        group_rows: Vec::new(),
     };
     let sample_probes = |sim: &Simulation<D>, rec: &mut Recorder| {
         let mut row = format!("{:.9}", sim.time);
@@ -200,8 +274,10 @@ pub fn run<const D: usize>(
         rec.front.push((sim.time, front_position(sim) - wx));
     }
     sample_probes(sim, &mut rec);
+    rec.record_groups(sim);
     rec.output(sim)?;
     let m0 = Metrics::measure(sim);
+    let groups0 = group_states(sim, rec.group_names.len());
     let mut min_pair = f64::INFINITY;
 
     let start = Instant::now();
@@ -236,6 +312,7 @@ pub fn run<const D: usize>(
                     r.collisions
                 ));
                 sample_probes(sim, &mut rec);
+                rec.record_groups(sim);
                 if let Some(wx) = wall_x {
                     rec.front.push((sim.time, front_position(sim) - wx));
                 }
@@ -311,6 +388,7 @@ pub fn run<const D: usize>(
         }
         Some(ValidationSpec::Hydrostatic {
             depth,
+            reference,
             probe,
             window,
         }) => {
@@ -320,7 +398,7 @@ pub fn run<const D: usize>(
                 .position(|p| &p.name == probe)
                 .expect("validated");
             let rho = case.phases[0].density;
-            let exact = rho * sim.gravity.norm() * depth;
+            let exact = reference.unwrap_or(rho * sim.gravity.norm() * depth);
             if let Some(mean) = window_mean(&rec.probe_series[k], *window) {
                 validation.push(ValidationResult {
                     name: "hydrostatic_bottom_pressure".into(),
@@ -328,13 +406,51 @@ pub fn run<const D: usize>(
                     reference: exact,
                     error: (mean - exact) / exact,
                     note: format!(
-                        "mean of probe `{probe}` over the last {window} s against rho g H"
+                        "mean of probe `{probe}` over the last {window} s against {}",
+                        if reference.is_some() {
+                            "the given reference"
+                        } else {
+                            "rho g H"
+                        }
+                    ),
+                });
+            }
+        }
+        Some(ValidationSpec::Groups { early_time, .. }) => {
+            let g = sim.gravity.norm();
+            let rho_w = case.phases[0].density;
+            let mut sum = 0.0;
+            let mut est = 0.0;
+            let t_early = rec
+                .group_series
+                .iter()
+                .find(|s| s.0 >= *early_time)
+                .map(|s| s.0);
+            if let Some(te) = t_early {
+                let at = rec.group_series.iter().find(|s| s.0 == te).expect("found");
+                let start = &rec.group_series[0];
+                for (k, name) in rec.group_names.iter().enumerate() {
+                    let rho_g = group_density(sim, k).unwrap_or(rho_w);
+                    let _ = name;
+                    sum += 2.0 * (at.1[k].1 - start.1[k].1).abs() / (te * te);
+                    est += g * (rho_g - rho_w).abs() / (rho_g + rho_w);
+                }
+                let n = rec.group_names.len().max(1) as f64;
+                let (meas, estimate) = (sum / n, est / n);
+                validation.push(ValidationResult {
+                    name: "group_early_acceleration".into(),
+                    value: meas,
+                    reference: estimate,
+                    error: (meas - estimate) / estimate,
+                    note: format!(
+                        "mean |2 dy / t^2| of the group centroids over the first {te:.3} s against g |rho_g - rho_w| / (rho_g + rho_w)"
                     ),
                 });
             }
         }
         None => {}
     }
+    let groups = group_summaries(sim, &rec, &groups0);
     let total = sim.particles.len();
     let m1 = Metrics::measure(sim);
     let summary = RunSummary {
@@ -373,8 +489,61 @@ pub fn run<const D: usize>(
                 (name.clone(), s[0].1, s[s.len() - 1].1)
             })
             .collect(),
+        groups,
     };
     let text = toml::to_string(&summary).map_err(|e| io::Error::other(e.to_string()))?;
     write_atomic(&out.join("summary.toml"), text.as_bytes())?;
     Ok(summary)
+}
+
+/// Density of group `k` (kg/m^3): that of its first fluid particle.
+fn group_density<const D: usize>(sim: &Simulation<D>, k: usize) -> Option<f64> {
+    let p = &sim.particles;
+    (0..p.len())
+        .find(|&i| p.group[i] as usize == k && p.kind[i] == Kind::Fluid)
+        .map(|i| p.density[i])
+}
+
+fn group_summaries<const D: usize>(
+    sim: &Simulation<D>,
+    rec: &Recorder,
+    start: &[GroupState<D>],
+) -> Vec<GroupSummary> {
+    let end = group_states(sim, rec.group_names.len());
+    let (bottom, surface, distance) = match &sim.case.validation {
+        Some(ValidationSpec::Groups {
+            bottom,
+            surface,
+            distance,
+            ..
+        }) => (Some(*bottom), Some(*surface), *distance),
+        _ => (None, None, 0.0),
+    };
+    let rho_w = sim.case.phases[0].density;
+    rec.group_names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let heavy = group_density(sim, k).unwrap_or(rho_w) > rho_w;
+            let arrived = |y: f64| match (heavy, bottom, surface) {
+                (true, Some(b), _) => y - b <= distance,
+                (false, _, Some(s)) => s - y <= distance,
+                _ => false,
+            };
+            GroupSummary {
+                name: name.clone(),
+                particles: end[k].count,
+                arrival_time: rec
+                    .group_series
+                    .iter()
+                    .find(|s| arrived(s.1[k].1))
+                    .map(|s| s.0),
+                stray_end: end[k].stray,
+                centroid: (
+                    (start[k].centroid[0], start[k].centroid[D - 1]),
+                    (end[k].centroid[0], end[k].centroid[D - 1]),
+                ),
+            }
+        })
+        .collect()
 }

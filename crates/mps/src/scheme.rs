@@ -61,6 +61,8 @@ pub struct Scheme {
     pub density_average: DensityAverage,
     /// Density in the gradient.
     pub gradient_density: GradientDensity,
+    /// Smoothed density in the PPE coefficient and the gradient.
+    pub density_smoothing: bool,
     /// Dummy pressure model.
     pub wall_pressure: WallPressure,
     /// Artificial compressibility (1/Pa).
@@ -231,6 +233,7 @@ impl Scheme {
             air_ghosts: s.air_ghosts.unwrap_or(source != SourceModel::Pnd),
             density_average: s.density_average.unwrap_or(DensityAverage::Arithmetic),
             gradient_density: s.gradient_density.unwrap_or(GradientDensity::Pair),
+            density_smoothing: s.density_smoothing.unwrap_or(false),
             wall_pressure: s.wall_pressure.unwrap_or(WallPressure::Extrapolated),
             compressibility: kappa,
             collision,

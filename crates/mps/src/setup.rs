@@ -251,9 +251,11 @@ pub fn build_particles<const D: usize>(
         p.pressure[i] = match &f.pressure {
             None => 0.0,
             Some(PressureSpec::Uniform { value }) => *value,
-            Some(PressureSpec::Hydrostatic { surface }) => {
-                rho * gravity.norm() * (surface - x[D - 1]).max(0.0)
-            }
+            Some(PressureSpec::Hydrostatic {
+                surface,
+                offset,
+                density,
+            }) => offset + density.unwrap_or(rho) * gravity.norm() * (surface - x[D - 1]).max(0.0),
             Some(PressureSpec::SquarePatch {
                 center,
                 side,

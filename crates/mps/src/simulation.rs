@@ -455,9 +455,40 @@ impl<const D: usize> Simulation<D> {
             neighbors: &self.neighbors,
         };
 
+        // Optional density smoothing for the PPE coefficient and the gradient (s.7).
+        let smoothed: Vec<f64> = if self.scheme.density_smoothing {
+            let re = self.kernels.grad.re;
+            let n0 = self.kernels.grad.n0;
+            (0..pos.len())
+                .into_par_iter()
+                .map(|i| {
+                    let (mut sw, mut swr) = (n0, n0 * p.density[i]);
+                    for &j in self.neighbors.of(i) {
+                        let j = j as usize;
+                        if p.kind[j] != Kind::Dummy {
+                            let w = weight((pos[j] - pos[i]).norm(), re);
+                            sw += w;
+                            swr += w * p.density[j];
+                        }
+                    }
+                    swr / sw
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let fc = if smoothed.is_empty() {
+            f
+        } else {
+            Fields {
+                density: &smoothed,
+                ..f
+            }
+        };
+
         // 4. Pressure Poisson equation.
         let t0 = Instant::now();
-        let sys = assemble(&f, &self.kernels, &self.scheme, self.gravity, dt);
+        let sys = assemble(&fc, &self.kernels, &self.scheme, self.gravity, dt);
         report.unknowns = sys.particle_of.len();
         self.timers.ppe_assembly += t0.elapsed();
         let t0 = Instant::now();
@@ -575,7 +606,7 @@ impl<const D: usize> Simulation<D> {
             .into_par_iter()
             .map(|i| {
                 if p.kind[i] == Kind::Fluid {
-                    pressure_acceleration(i, &f, &pressure, &ph, &carries, k, s)
+                    pressure_acceleration(i, &fc, &pressure, &ph, &carries, k, s)
                 } else {
                     Vector::zero()
                 }
