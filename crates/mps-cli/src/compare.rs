@@ -1,5 +1,5 @@
-//! `mps compare`: run one case once per scheme, each into its own folder, concurrently
-//! where cores allow, and write a comparison table.
+//! `mps compare`: run one case once per scheme, each into its own folder, concurrently,
+//! and write a comparison table.
 
 use crate::{load_case, CaseArgs};
 use anyhow::{Context, Result};
@@ -49,7 +49,9 @@ pub fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         .unwrap_or_else(|| PathBuf::from("runs").join(format!("{name}_compare")));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let per_run = (cores / cases.len()).max(1);
+    // Every run gets a full-size pool: when some schemes break down early the others keep
+    // all cores (results do not depend on the thread count).
+    let per_run = cores;
     eprintln!(
         "comparing {} on {} ({} thread(s) per run) -> {}",
         a.schemes.join(", "),
