@@ -60,6 +60,10 @@ struct RunArgs {
     /// Number of threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Continue from a checkpoint written by an earlier run of the same case (e.g. with a
+    /// later `time.end`); output goes to `--out` or `restart_t<time>` beside the checkpoint.
+    #[arg(long, value_name = "CHECKPOINT")]
+    restart: Option<PathBuf>,
 }
 
 /// Loads the case named by the arguments, with overrides applied; returns it and its label.
@@ -193,7 +197,7 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(1));
         }
     };
-    let out = a
+    let mut out = a
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&case.name));
@@ -205,6 +209,31 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(1));
         }
     };
+    if let Some(ck) = &a.restart {
+        let bytes = match std::fs::read(ck) {
+            Ok(b) => b,
+            Err(e) => {
+                eprintln!("error: {}: cannot read checkpoint: {e}", ck.display());
+                return Ok(ExitCode::from(1));
+            }
+        };
+        if let Err(e) = mps::checkpoint::restore(&mut sim, &bytes) {
+            eprintln!("error: {}: {e}", ck.display());
+            return Ok(ExitCode::from(1));
+        }
+        if a.out.is_none() {
+            let dir = ck.parent().unwrap_or(Path::new("."));
+            out = dir.join(format!("restart_t{:.4}", sim.time));
+        }
+        if !a.quiet {
+            eprintln!(
+                "restarting from {} at t = {:.6} s (step {})",
+                ck.display(),
+                sim.time,
+                sim.step_count
+            );
+        }
+    }
     if !a.quiet {
         let p = &sim.particles;
         eprintln!(

@@ -160,3 +160,68 @@ fn compare_writes_one_row_per_scheme() {
     assert_eq!(bad.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("scheme.name = \"SPH\""));
 }
+
+/// A run writes `checkpoint.bin`; `--restart` extends it to a later end time; a file that is
+/// no checkpoint is a clear error.
+#[test]
+fn restart_extends_a_run() {
+    let dir = std::env::temp_dir().join(format!("mps_cli_restart_{}", std::process::id()));
+    let base = [
+        "--example",
+        "dam_break",
+        "-q",
+        "--set",
+        "particles.spacing=0.0073",
+        "--set",
+        "output.vtu=false",
+        "--set",
+        "output.interval=0.01",
+    ];
+    let out = mps()
+        .arg("run")
+        .args(base)
+        .args(["--set", "time.end=0.02", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let ck = dir.join("checkpoint.bin");
+    assert!(ck.exists());
+    let more = dir.join("more");
+    let out = mps()
+        .arg("run")
+        .args(base)
+        .args(["--set", "time.end=0.04", "--restart"])
+        .arg(&ck)
+        .arg("--out")
+        .arg(&more)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary = std::fs::read_to_string(more.join("summary.toml")).unwrap();
+    assert!(summary.contains("time = 0.04"), "{summary}");
+    let metrics = std::fs::read_to_string(more.join("metrics.csv")).unwrap();
+    assert!(
+        metrics.lines().nth(1).unwrap().starts_with("0.02"),
+        "{metrics}"
+    );
+    let junk = dir.join("junk.bin");
+    std::fs::write(&junk, b"not a checkpoint").unwrap();
+    let out = mps()
+        .arg("run")
+        .args(base)
+        .arg("--restart")
+        .arg(&junk)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not an MPS checkpoint"));
+}

@@ -403,6 +403,9 @@ pub struct OutputSpec {
     /// Write VTU particle files (and the `.pvd` index).
     #[serde(default = "default_true")]
     pub vtu: bool,
+    /// Write `checkpoint.bin` (the full state, for restart) at every output step.
+    #[serde(default = "default_true")]
+    pub checkpoint: bool,
 }
 
 impl Default for OutputSpec {
@@ -410,6 +413,7 @@ impl Default for OutputSpec {
         OutputSpec {
             interval: default_interval(),
             vtu: true,
+            checkpoint: true,
         }
     }
 }

@@ -16,6 +16,7 @@
 
 pub mod analytic;
 pub mod case;
+pub mod checkpoint;
 pub mod compare;
 pub mod diagnostics;
 pub mod examples;

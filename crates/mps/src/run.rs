@@ -3,6 +3,7 @@
 //! a run summary, and on breakdown the last good state with a breakdown record.
 
 use crate::case::ValidationSpec;
+use crate::checkpoint::write_checkpoint;
 use crate::diagnostics::{front_position, Metrics, METRICS_HEADER};
 use crate::groups::{group_states, pressure_noise, GroupState};
 use crate::output::{pvd_bytes, vtu_bytes, write_atomic};
@@ -137,6 +138,9 @@ impl Recorder {
     }
 
     fn output<const D: usize>(&mut self, sim: &Simulation<D>) -> io::Result<()> {
+        if sim.case.output.checkpoint {
+            write_checkpoint(sim, &self.out.join("checkpoint.bin"))?;
+        }
         let k = self.metrics.len();
         self.snapshot(sim, &format!("particles_{k:06}.vtu"))?;
         let m = Metrics::measure(sim);
@@ -283,7 +287,12 @@ pub fn run<const D: usize>(
     let start = Instant::now();
     let end = case.time.end;
     let interval = case.output.interval;
-    let mut next_out = if interval > 0.0 { interval } else { end };
+    // The next output time after the current one (a restarted run continues the sequence).
+    let mut next_out = if interval > 0.0 {
+        ((sim.time / interval + 1e-9).floor() + 1.0) * interval
+    } else {
+        end
+    };
     let max_steps = case.time.max_steps.unwrap_or(u64::MAX);
     let mut breakdown: Option<Breakdown> = None;
     let mut iterations_total = 0u64;

@@ -272,6 +272,11 @@ impl<const D: usize> Simulation<D> {
         self.particles.permute(&order);
     }
 
+    /// Rebuilds the neighbour lists at the current positions (after a restore).
+    pub fn rebuild_neighbors(&mut self) {
+        self.neighbors = build_neighbor_list(&self.particles.position, self.cutoff());
+    }
+
     /// Recomputes number density, free-surface flags and wall pressures at the current
     /// positions (for output of the initial state and after a restart).
     pub fn refresh_diagnostic_fields(&mut self) {
