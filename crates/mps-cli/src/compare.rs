@@ -26,6 +26,15 @@ pub struct CompareArgs {
     /// Output folder (default `runs/<case name>_compare`); one subfolder per scheme.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Times of the side-by-side figure's columns (s); default four up to the end time.
+    #[arg(long, value_delimiter = ',')]
+    figure_times: Vec<f64>,
+    /// Colouring field of the figure: pressure, velocity, phase or density.
+    #[arg(long, default_value = "pressure")]
+    figure_field: String,
+    /// Draw velocity vectors in the figure.
+    #[arg(long)]
+    vectors: bool,
 }
 
 pub fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
@@ -108,10 +117,106 @@ pub fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         &out.join("compare_metrics.csv"),
         join_metrics(&parts).as_bytes(),
     )?;
+    if let Some(f) = comparison_figure(&a, &out, &runs, cases[0].1 .0.time.end)? {
+        eprintln!("figure: {}", f.display());
+    }
     println!("{md}");
     eprintln!(
         "written: {0}/compare.md, compare.csv, compare_metrics.csv, one folder per scheme",
         out.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// The side-by-side figure: one row per scheme, one column per time, one colour scale; a
+/// scheme that broke down before a column's time shows its last good state, marked.
+fn comparison_figure(
+    a: &CompareArgs,
+    out: &std::path::Path,
+    runs: &[SchemeRun],
+    end: f64,
+) -> Result<Option<PathBuf>> {
+    use mps_render::{compose, read_pvd, render_frame, Field, Frame, RenderOptions};
+    let Some(field) = Field::parse(&a.figure_field) else {
+        anyhow::bail!(
+            "--figure-field {}: one of pressure, velocity, phase, density",
+            a.figure_field
+        );
+    };
+    let times: Vec<f64> = if a.figure_times.is_empty() {
+        (1..=4).map(|k| end * k as f64 / 4.0).collect()
+    } else {
+        a.figure_times.clone()
+    };
+    // Load the frame of each (scheme, time).
+    let mut grid: Vec<(String, f64, Frame, bool)> = Vec::new();
+    for r in runs {
+        let dir = out.join(&r.scheme);
+        let Ok(text) = std::fs::read_to_string(dir.join("particles.pvd")) else {
+            return Ok(None); // no VTU output (output.vtu = false)
+        };
+        let entries = read_pvd(&text);
+        for &t in &times {
+            let broken = r.summary.breakdown_time.is_some_and(|bt| bt < t);
+            let entry = if broken {
+                entries
+                    .iter()
+                    .find(|e| e.1.starts_with("breakdown"))
+                    .or(entries.last())
+            } else {
+                entries
+                    .iter()
+                    .filter(|e| !e.1.starts_with("breakdown"))
+                    .min_by(|x, y| (x.0 - t).abs().total_cmp(&(y.0 - t).abs()))
+            };
+            let Some((_, file)) = entry else { continue };
+            let bytes = std::fs::read(dir.join(file))?;
+            let frame = Frame::from_vtu(&bytes).map_err(|e| anyhow::anyhow!("{file}: {e}"))?;
+            grid.push((r.scheme.clone(), t, frame, broken));
+        }
+    }
+    // One colour scale for all panels (fluid range over every frame).
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (_, _, f, _) in &grid {
+        let (a0, b0) = f.range(field);
+        lo = lo.min(a0);
+        hi = hi.max(b0);
+    }
+    let bounds = {
+        let mut l = [f64::INFINITY; 2];
+        let mut h = [f64::NEG_INFINITY; 2];
+        let mut pad: f64 = 0.0;
+        for (_, _, f, _) in &grid {
+            pad = pad.max(2.0 * f.spacing);
+            for p in &f.position {
+                for k in 0..2 {
+                    l[k] = l[k].min(p[k]);
+                    h[k] = h[k].max(p[k]);
+                }
+            }
+        }
+        (!grid.is_empty()).then_some(([l[0] - pad, l[1] - pad], [h[0] + pad, h[1] + pad]))
+    };
+    let panels: Vec<_> = grid
+        .iter()
+        .map(|(scheme, _, frame, broken)| {
+            render_frame(
+                frame,
+                &RenderOptions {
+                    width: 520,
+                    field,
+                    vectors: a.vectors,
+                    range: Some((lo, hi)),
+                    bounds,
+                    label: scheme.clone(),
+                    breakdown: *broken,
+                    ..Default::default()
+                },
+            )
+        })
+        .collect();
+    let fig = compose(&panels, times.len());
+    let path = out.join("compare.png");
+    fig.write_png(&path)?;
+    Ok(Some(path))
 }

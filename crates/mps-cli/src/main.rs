@@ -13,6 +13,7 @@ use std::time::Instant;
 
 mod bench;
 mod compare;
+mod render;
 
 /// Moving Particle Semi-implicit (MPS) solver for incompressible free-surface and multiphase flow.
 #[derive(Parser)]
@@ -32,6 +33,8 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Run a case once per scheme and compare breakdown and stability metrics.
     Compare(compare::CompareArgs),
+    /// Draw PNG snapshots of a run (particles coloured by a field, optional vectors).
+    Render(render::RenderArgs),
 }
 
 /// Where a case comes from, and how to change it.
@@ -293,6 +296,7 @@ fn main() -> ExitCode {
         }
         Command::Bench(a) => bench::cmd_bench(a),
         Command::Compare(a) => compare::cmd_compare(a),
+        Command::Render(a) => render::cmd_render(a),
     };
     match r {
         Ok(c) => c,

@@ -36,7 +36,8 @@ enum Array<'a> {
 /// Serialises particles as an unstructured-grid VTU file (one vertex cell per particle) with
 /// raw appended binary data: position, velocity, pressure, density, phase, kind,
 /// free-surface flag, number density and id.
-pub fn vtu_bytes<const D: usize>(p: &Particles<D>, time: f64) -> Vec<u8> {
+/// `time` (s) and the particle spacing `spacing` (m) go into the file's field data.
+pub fn vtu_bytes<const D: usize>(p: &Particles<D>, time: f64, spacing: f64) -> Vec<u8> {
     let n = p.len();
     let mut pts = Vec::with_capacity(3 * n);
     let mut vel = Vec::with_capacity(3 * n);
@@ -71,7 +72,7 @@ pub fn vtu_bytes<const D: usize>(p: &Particles<D>, time: f64) -> Vec<u8> {
     let i32_bytes = |v: &[i32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
     head.push_str("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<UnstructuredGrid>\n");
     head.push_str(&format!(
-        "<FieldData><DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">{time:.9}</DataArray></FieldData>\n"
+        "<FieldData><DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">{time:.9}</DataArray><DataArray type=\"Float64\" Name=\"Spacing\" NumberOfTuples=\"1\" format=\"ascii\">{spacing:.9e}</DataArray></FieldData>\n"
     ));
     head.push_str(&format!(
         "<Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n"
@@ -120,8 +121,23 @@ pub fn pvd_bytes(entries: &[(f64, String)]) -> Vec<u8> {
     s.into_bytes()
 }
 
-/// Reads back the particle positions, pressure and kind of a VTU written by [`vtu_bytes`]
-/// (used by tests and post-processing). Returns (points as xyz, named f64 scalar arrays).
+/// A value of the ASCII field data (e.g. `TimeValue`, `Spacing`) of a VTU written by
+/// [`vtu_bytes`].
+pub fn read_vtu_field_data(bytes: &[u8], name: &str) -> Option<f64> {
+    let end = bytes
+        .windows(14)
+        .position(|w| w == b"<AppendedData ")
+        .unwrap_or(bytes.len());
+    let head = std::str::from_utf8(&bytes[..end]).ok()?;
+    let key = format!("Name=\"{name}\"");
+    let at = head.find(&key)?;
+    let start = at + head[at..].find('>')? + 1;
+    let end = start + head[start..].find('<')?;
+    head[start..end].trim().parse().ok()
+}
+
+/// Reads back the arrays of a VTU written by [`vtu_bytes`] (tests and post-processing):
+/// each named array (the points as `Points`, xyz) as f64 values.
 pub fn read_vtu_arrays(bytes: &[u8]) -> Option<Vec<(String, Vec<f64>)>> {
     let marker = b"<AppendedData encoding=\"raw\">\n_";
     let start = bytes.windows(marker.len()).position(|w| w == marker)? + marker.len();
@@ -183,7 +199,7 @@ mod tests {
             1000.0,
         );
         p.pressure = vec![12.5, -3.0];
-        let b = vtu_bytes(&p, 0.5);
+        let b = vtu_bytes(&p, 0.5, 0.01);
         let arrays = read_vtu_arrays(&b).unwrap();
         let get = |n: &str| arrays.iter().find(|a| a.0 == n).unwrap().1.clone();
         assert_eq!(get("pressure"), vec![12.5, -3.0]);

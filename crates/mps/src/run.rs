@@ -130,7 +130,10 @@ struct Recorder {
 impl Recorder {
     fn snapshot<const D: usize>(&mut self, sim: &Simulation<D>, name: &str) -> io::Result<()> {
         if self.write_vtu {
-            write_atomic(&self.out.join(name), &vtu_bytes(&sim.particles, sim.time))?;
+            write_atomic(
+                &self.out.join(name),
+                &vtu_bytes(&sim.particles, sim.time, sim.l0()),
+            )?;
             self.snapshots.push((sim.time, name.to_string()));
             write_atomic(&self.out.join("particles.pvd"), &pvd_bytes(&self.snapshots))?;
         }

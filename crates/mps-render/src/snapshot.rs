@@ -1,0 +1,467 @@
+//! Particle snapshots: each particle a disc of its diameter (l0) in world units, coloured by
+//! a field, walls in grey, optional velocity vectors with a reference arrow, a colour bar
+//! with its range and unit, the time in the title, the domain's true aspect ratio.
+
+use crate::canvas::{Canvas, BLACK, WHITE};
+use crate::colormap::viridis;
+use mps::output::{read_vtu_arrays, read_vtu_field_data};
+
+/// The (time, file) entries of a `.pvd` index written by the solver.
+pub fn read_pvd(text: &str) -> Vec<(f64, String)> {
+    let attr = |line: &str, k: &str| -> Option<String> {
+        let at = line.find(&format!("{k}=\""))? + k.len() + 2;
+        Some(line[at..at + line[at..].find('"')?].to_string())
+    };
+    text.lines()
+        .filter(|l| l.contains("<DataSet"))
+        .filter_map(|l| Some((attr(l, "timestep")?.parse().ok()?, attr(l, "file")?)))
+        .collect()
+}
+
+/// One output state of a run, as read from its VTU file.
+#[derive(Clone, Debug, Default)]
+pub struct Frame {
+    /// Simulated time (s).
+    pub time: f64,
+    /// Particle spacing l0 (m).
+    pub spacing: f64,
+    /// Positions (m).
+    pub position: Vec<[f64; 2]>,
+    /// Velocities (m/s).
+    pub velocity: Vec<[f64; 2]>,
+    /// Kind: 0 fluid, 1 wall, 2 dummy.
+    pub kind: Vec<u8>,
+    /// Pressure (Pa).
+    pub pressure: Vec<f64>,
+    /// Density (kg/m^3).
+    pub density: Vec<f64>,
+    /// Phase index.
+    pub phase: Vec<f64>,
+}
+
+/// The quantity a snapshot is coloured by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    /// Pressure (Pa).
+    Pressure,
+    /// Speed (m/s).
+    Velocity,
+    /// Phase index.
+    Phase,
+    /// Density (kg/m^3).
+    Density,
+}
+
+impl Field {
+    /// Parses `pressure`, `velocity`, `phase`, `density`.
+    pub fn parse(s: &str) -> Option<Field> {
+        match s {
+            "pressure" => Some(Field::Pressure),
+            "velocity" => Some(Field::Velocity),
+            "phase" => Some(Field::Phase),
+            "density" => Some(Field::Density),
+            _ => None,
+        }
+    }
+    /// Name and unit for titles and colour bars.
+    pub fn label(&self) -> (&'static str, &'static str) {
+        match self {
+            Field::Pressure => ("pressure", "Pa"),
+            Field::Velocity => ("speed", "m/s"),
+            Field::Phase => ("phase", "-"),
+            Field::Density => ("density", "kg/m3"),
+        }
+    }
+}
+
+impl Frame {
+    /// Reads a frame from the bytes of a VTU file written by the solver.
+    pub fn from_vtu(bytes: &[u8]) -> Result<Frame, String> {
+        let arrays = read_vtu_arrays(bytes).ok_or("not a VTU file written by mps")?;
+        let get = |n: &str| -> Result<Vec<f64>, String> {
+            arrays
+                .iter()
+                .find(|a| a.0 == n)
+                .map(|a| a.1.clone())
+                .ok_or(format!("array `{n}` missing"))
+        };
+        let pts = get("Points")?;
+        let vel = get("velocity")?;
+        let pairs = |v: &[f64]| v.chunks_exact(3).map(|c| [c[0], c[1]]).collect::<Vec<_>>();
+        Ok(Frame {
+            time: read_vtu_field_data(bytes, "TimeValue").unwrap_or(0.0),
+            spacing: read_vtu_field_data(bytes, "Spacing").ok_or("no Spacing in field data")?,
+            position: pairs(&pts),
+            velocity: pairs(&vel),
+            kind: get("kind")?.iter().map(|&k| k as u8).collect(),
+            pressure: get("pressure")?,
+            density: get("density")?,
+            phase: get("phase")?,
+        })
+    }
+
+    /// The values of `field` for every particle.
+    pub fn values(&self, field: Field) -> Vec<f64> {
+        match field {
+            Field::Pressure => self.pressure.clone(),
+            Field::Velocity => self
+                .velocity
+                .iter()
+                .map(|u| (u[0] * u[0] + u[1] * u[1]).sqrt())
+                .collect(),
+            Field::Phase => self.phase.clone(),
+            Field::Density => self.density.clone(),
+        }
+    }
+
+    /// (min, max) of `field` over fluid particles.
+    pub fn range(&self, field: Field) -> (f64, f64) {
+        let v = self.values(field);
+        let mut r = (f64::INFINITY, f64::NEG_INFINITY);
+        for (i, x) in v.iter().enumerate() {
+            if self.kind[i] == 0 && x.is_finite() {
+                r = (r.0.min(*x), r.1.max(*x));
+            }
+        }
+        if !r.0.is_finite() {
+            (0.0, 1.0)
+        } else {
+            r
+        }
+    }
+}
+
+/// How to draw a snapshot.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Image width (px); the height follows from the domain's aspect ratio.
+    pub width: u32,
+    /// Colouring field.
+    pub field: Field,
+    /// Draw velocity vectors.
+    pub vectors: bool,
+    /// Colour range (default: the frame's fluid range).
+    pub range: Option<(f64, f64)>,
+    /// World bounds (lower-left, upper-right) in m (default: all particles, padded by l0).
+    pub bounds: Option<([f64; 2], [f64; 2])>,
+    /// Speed drawn as the longest arrow (m/s) (default: the frame's largest fluid speed).
+    pub vector_scale: Option<f64>,
+    /// Extra text before the title (e.g. the scheme).
+    pub label: String,
+    /// Mark the frame as broken down (a red band and the word in the title).
+    pub breakdown: bool,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 900,
+            field: Field::Pressure,
+            vectors: false,
+            range: None,
+            bounds: None,
+            vector_scale: None,
+            label: String::new(),
+            breakdown: false,
+        }
+    }
+}
+
+/// Layout constants (px).
+const MARGIN: i64 = 10;
+const TITLE: i64 = 34;
+const BAR_AREA: i64 = 130;
+const BAR_WIDTH: i64 = 18;
+
+/// Compact number for labels.
+pub fn fmt_value(v: f64) -> String {
+    if v != 0.0 && (v.abs() >= 1e4 || v.abs() < 1e-2) {
+        format!("{v:.2e}")
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+/// Placement of the world in the image: scale (px/m), world lower-left, plot origin.
+#[derive(Clone, Copy, Debug)]
+pub struct Placement {
+    /// Pixels per metre.
+    pub scale: f64,
+    /// World lower-left corner (m).
+    pub lo: [f64; 2],
+    /// World upper-right corner (m).
+    pub hi: [f64; 2],
+    /// Plot area's left edge (px).
+    pub left: f64,
+    /// Plot area's top edge (px).
+    pub top: f64,
+}
+
+impl Placement {
+    /// Pixel coordinates of a world point.
+    pub fn to_px(&self, x: [f64; 2]) -> (f64, f64) {
+        (
+            self.left + (x[0] - self.lo[0]) * self.scale,
+            self.top + (self.hi[1] - x[1]) * self.scale,
+        )
+    }
+}
+
+/// The placement of a frame's world in an image of the options' width.
+pub fn placement(frame: &Frame, opts: &RenderOptions) -> Placement {
+    let (lo, hi) = opts.bounds.unwrap_or_else(|| {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for p in &frame.position {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let pad = frame.spacing;
+        ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad])
+    });
+    let plot_w = (opts.width as i64 - 2 * MARGIN - BAR_AREA).max(50) as f64;
+    Placement {
+        scale: plot_w / (hi[0] - lo[0]).max(1e-12),
+        lo,
+        hi,
+        left: MARGIN as f64,
+        top: TITLE as f64,
+    }
+}
+
+/// Draws one frame.
+pub fn render_frame(frame: &Frame, opts: &RenderOptions) -> Canvas {
+    let pl = placement(frame, opts);
+    let plot_h = ((pl.hi[1] - pl.lo[1]) * pl.scale).ceil() as i64;
+    let height = (TITLE + plot_h + MARGIN).max(TITLE + 120) as u32;
+    let mut c = Canvas::new(opts.width, height);
+    let values = frame.values(opts.field);
+    let (vmin, vmax) = opts.range.unwrap_or_else(|| frame.range(opts.field));
+    let span = if vmax > vmin { vmax - vmin } else { 1.0 };
+    let r = (0.5 * frame.spacing * pl.scale).max(0.75);
+    // Walls and dummies first (grey), then fluid on top.
+    for i in 0..frame.position.len() {
+        if frame.kind[i] != 0 {
+            let (x, y) = pl.to_px(frame.position[i]);
+            let g = if frame.kind[i] == 1 { 150 } else { 200 };
+            c.disc(x, y, r, [g, g, g]);
+        }
+    }
+    for i in 0..frame.position.len() {
+        if frame.kind[i] == 0 {
+            let (x, y) = pl.to_px(frame.position[i]);
+            c.disc(x, y, r, viridis((values[i] - vmin) / span));
+        }
+    }
+    let (name, unit) = opts.field.label();
+    let mut title = format!("{name} ({unit})   t = {:.3} s", frame.time);
+    if !opts.label.is_empty() {
+        title = format!("{}   {title}", opts.label);
+    }
+    if opts.breakdown {
+        title.push_str("   BREAKDOWN");
+        c.rect(0, 0, opts.width as i64, 4, [200, 30, 30]);
+    }
+    // Large font when the title fits beside the colour bar, else the small one.
+    let fits = (title.len() as i64) * 16 <= opts.width as i64 - BAR_AREA - MARGIN;
+    c.text(
+        MARGIN,
+        if fits { 12 } else { 16 },
+        &title,
+        if fits { 2 } else { 1 },
+        BLACK,
+    );
+    if opts.vectors {
+        draw_vectors(&mut c, frame, &pl, opts);
+    }
+    // Colour bar: max at the top, min at the bottom.
+    let bx = opts.width as i64 - BAR_AREA + 12;
+    let (top, bottom) = (TITLE + 22, TITLE + plot_h.max(100) - 14);
+    for y in top..bottom {
+        let t = 1.0 - (y - top) as f64 / (bottom - 1 - top).max(1) as f64;
+        c.rect(bx, y, bx + BAR_WIDTH, y + 1, viridis(t));
+    }
+    c.text(bx, TITLE + 4, unit, 1, BLACK);
+    c.text(bx + BAR_WIDTH + 4, top, &fmt_value(vmax), 1, BLACK);
+    c.text(
+        bx + BAR_WIDTH + 4,
+        (top + bottom) / 2 - 4,
+        &fmt_value(0.5 * (vmin + vmax)),
+        1,
+        BLACK,
+    );
+    c.text(bx + BAR_WIDTH + 4, bottom - 8, &fmt_value(vmin), 1, BLACK);
+    c
+}
+
+fn draw_vectors(c: &mut Canvas, frame: &Frame, pl: &Placement, opts: &RenderOptions) {
+    let speeds = frame.values(Field::Velocity);
+    let umax = opts.vector_scale.unwrap_or_else(|| {
+        speeds
+            .iter()
+            .zip(&frame.kind)
+            .filter(|(_, k)| **k == 0)
+            .map(|(s, _)| *s)
+            .fold(0.0, f64::max)
+    });
+    if umax <= 0.0 {
+        return;
+    }
+    let longest = 24.0; // px for umax
+    let cell = 14.0; // at most one arrow per cell of this size (px)
+    let mut taken = std::collections::HashSet::new();
+    for i in 0..frame.position.len() {
+        if frame.kind[i] != 0 {
+            continue;
+        }
+        let (x, y) = pl.to_px(frame.position[i]);
+        if !taken.insert(((x / cell) as i64, (y / cell) as i64)) {
+            continue;
+        }
+        let u = frame.velocity[i];
+        let (dx, dy) = (u[0] / umax * longest, -u[1] / umax * longest);
+        c.arrow(x, y, x + dx, y + dy, BLACK);
+    }
+    // Reference arrow in the title row, above the colour bar.
+    let bx = opts.width as f64 - BAR_AREA as f64 + 12.0;
+    let y = 16.0;
+    c.rect(bx as i64 - 2, 4, c.width as i64, 28, WHITE);
+    c.arrow(bx, y, bx + longest, y, BLACK);
+    c.text(
+        bx as i64 + longest as i64 + 4,
+        y as i64 - 4,
+        &format!("{} m/s", fmt_value(umax)),
+        1,
+        BLACK,
+    );
+}
+
+/// Lays canvases out in a grid (row-major, `cols` per row) on a white background.
+pub fn compose(panels: &[Canvas], cols: usize) -> Canvas {
+    let cols = cols.max(1);
+    let rows = panels.len().div_ceil(cols);
+    let w = panels.iter().map(|p| p.width).max().unwrap_or(1);
+    let h = panels.iter().map(|p| p.height).max().unwrap_or(1);
+    let mut out = Canvas::new(w * cols as u32, h * rows.max(1) as u32);
+    for (k, p) in panels.iter().enumerate() {
+        let (ox, oy) = ((k % cols) as u32 * w, (k / cols) as u32 * h);
+        for y in 0..p.height {
+            for x in 0..p.width {
+                out.set((ox + x) as i64, (oy + y) as i64, p.get(x, y));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three fluid particles with known pressures and one wall particle.
+    fn frame() -> Frame {
+        Frame {
+            time: 0.25,
+            spacing: 0.1,
+            position: vec![[0.0, 0.0], [1.0, 0.0], [0.5, 0.5], [0.0, 1.0]],
+            velocity: vec![[1.0, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]],
+            kind: vec![0, 0, 0, 1],
+            pressure: vec![0.0, 100.0, 50.0, 0.0],
+            density: vec![1000.0; 4],
+            phase: vec![0.0; 4],
+        }
+    }
+
+    #[test]
+    fn particles_take_the_colour_of_their_value_and_the_rest_stays_empty() {
+        let f = frame();
+        let opts = RenderOptions {
+            width: 600,
+            ..Default::default()
+        };
+        let c = render_frame(&f, &opts);
+        let pl = placement(&f, &opts);
+        assert_eq!(c.width, 600);
+        // Square world (1.2 m x 1.2 m) -> plot as high as wide.
+        let plot_w = 600 - 2 * MARGIN - BAR_AREA;
+        assert_eq!(c.height as i64, TITLE + plot_w + MARGIN);
+        for (i, want) in [(0usize, 0.0), (1, 1.0), (2, 0.5)] {
+            let (x, y) = pl.to_px(f.position[i]);
+            assert_eq!(c.get(x as u32, y as u32), viridis(want), "particle {i}");
+        }
+        let (x, y) = pl.to_px(f.position[3]);
+        assert_eq!(c.get(x as u32, y as u32), [150, 150, 150], "wall in grey");
+        // Empty space between particles stays white.
+        let (x, y) = pl.to_px([0.5, 0.0]);
+        assert_eq!(c.get(x as u32, y as u32), WHITE);
+        let (x, y) = pl.to_px([0.25, 0.75]);
+        assert_eq!(c.get(x as u32, y as u32), WHITE);
+    }
+
+    #[test]
+    fn colour_bar_ends_match_the_field_range() {
+        let f = frame();
+        let c = render_frame(&f, &RenderOptions::default());
+        let bx = (900 - BAR_AREA + 12 + BAR_WIDTH / 2) as u32;
+        let top = (TITLE + 22) as u32;
+        let plot_h = c.height as i64 - TITLE - MARGIN;
+        let bottom = (TITLE + plot_h - 14 - 1) as u32;
+        assert_eq!(c.get(bx, top), viridis(1.0));
+        assert_eq!(c.get(bx, bottom), viridis(0.0));
+    }
+
+    #[test]
+    fn velocity_arrow_points_along_the_velocity() {
+        let f = frame();
+        let opts = RenderOptions {
+            width: 600,
+            vectors: true,
+            ..Default::default()
+        };
+        let c = render_frame(&f, &opts);
+        let pl = placement(&f, &opts);
+        let (x, y) = pl.to_px(f.position[0]);
+        // Particle 0 moves in +x at the largest speed: black pixels to its right, on its row,
+        // beyond the disc, and none to its left.
+        let r = 0.5 * f.spacing * pl.scale;
+        let right = (x + r + 3.0) as u32;
+        assert_eq!(c.get(right, y as u32), BLACK);
+        let left = (x - r - 3.0).max(0.0) as u32;
+        assert_ne!(c.get(left, y as u32), BLACK);
+    }
+
+    #[test]
+    fn panels_are_laid_out_row_by_row() {
+        let mut a = Canvas::new(4, 3);
+        a.set(0, 0, BLACK);
+        let b = Canvas::new(4, 3);
+        let g = compose(&[a.clone(), b.clone(), b, a], 2);
+        assert_eq!((g.width, g.height), (8, 6));
+        assert_eq!(g.get(0, 0), BLACK);
+        assert_eq!(g.get(4, 0), WHITE);
+        assert_eq!(g.get(4, 3), BLACK);
+    }
+
+    #[test]
+    fn a_frame_round_trips_through_vtu() {
+        use mps::particles::{Kind, Particles};
+        use mps::vector::Vector;
+        let mut p = Particles::<2>::default();
+        p.push(
+            Vector([0.1, 0.2]),
+            Vector([1.0, 2.0]),
+            Kind::Fluid,
+            0,
+            1000.0,
+        );
+        p.pressure[0] = 42.0;
+        let b = mps::output::vtu_bytes(&p, 0.75, 0.005);
+        let f = Frame::from_vtu(&b).unwrap();
+        assert_eq!(f.time, 0.75);
+        assert_eq!(f.spacing, 0.005);
+        assert_eq!(f.position, vec![[0.1, 0.2]]);
+        assert_eq!(f.pressure, vec![42.0]);
+    }
+}
