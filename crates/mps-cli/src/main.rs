@@ -13,7 +13,9 @@ use std::time::Instant;
 
 mod bench;
 mod compare;
+mod plot;
 mod render;
+mod report;
 
 /// Moving Particle Semi-implicit (MPS) solver for incompressible free-surface and multiphase flow.
 #[derive(Parser)]
@@ -35,6 +37,10 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Draw PNG snapshots of a run (particles coloured by a field, optional vectors).
     Render(render::RenderArgs),
+    /// Plot a run's metrics over time and its validation curves (PNG).
+    Plot(plot::PlotArgs),
+    /// Write a self-contained HTML report of a run or a comparison.
+    Report(report::ReportArgs),
 }
 
 /// Where a case comes from, and how to change it.
@@ -67,6 +73,9 @@ struct RunArgs {
     /// later `time.end`); output goes to `--out` or `restart_t<time>` beside the checkpoint.
     #[arg(long, value_name = "CHECKPOINT")]
     restart: Option<PathBuf>,
+    /// Render every N-th snapshot to `OUT/figures/` (pressure, with vectors) as the run goes.
+    #[arg(long, value_name = "N")]
+    render_every: Option<usize>,
 }
 
 /// Loads the case named by the arguments, with overrides applied; returns it and its label.
@@ -113,6 +122,7 @@ struct Reporter {
     bar: Option<ProgressBar>,
     quiet: bool,
     last_log: Instant,
+    render_every: Option<usize>,
 }
 
 impl Reporter {
@@ -132,6 +142,7 @@ impl Reporter {
             bar,
             quiet,
             last_log: Instant::now(),
+            render_every: None,
         }
     }
 }
@@ -152,6 +163,30 @@ impl Observer for Reporter {
                 "t = {:.4} / {} s  step {}  {:.0} steps/s  dt {:.2e} s  PPE {} it  ETA {:.0} s",
                 p.time, p.end, p.step, rate, p.report.dt, p.report.solve.iterations, eta
             );
+        }
+    }
+    fn on_snapshot(&mut self, index: usize, path: &Path) {
+        let Some(n) = self.render_every else { return };
+        if n == 0 || index % n != 0 {
+            return;
+        }
+        let done = std::fs::read(path)
+            .map_err(|e| e.to_string())
+            .and_then(|b| mps_render::Frame::from_vtu(&b))
+            .and_then(|frame| {
+                let dir = path.parent().unwrap_or(Path::new(".")).join("figures");
+                std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+                let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+                let opts = mps_render::RenderOptions {
+                    vectors: true,
+                    ..Default::default()
+                };
+                mps_render::render_frame(&frame, &opts)
+                    .write_png(&dir.join(format!("pressure_{stem}.png")))
+                    .map_err(|e| e.to_string())
+            });
+        if let Err(e) = done {
+            self.on_message(&format!("warning: rendering {}: {e}", path.display()));
         }
     }
     fn on_message(&mut self, m: &str) {
@@ -251,7 +286,22 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
             out.display()
         );
     }
+    // Keep the case beside its output (the report shows it; a rerun starts from it).
+    let source = match (&a.case.case, &a.case.example) {
+        (Some(p), _) => std::fs::read_to_string(p).unwrap_or_default(),
+        (None, Some(n)) => mps::examples::example(n).unwrap_or_default().to_string(),
+        _ => String::new(),
+    };
+    let sets: String = a
+        .case
+        .set
+        .iter()
+        .map(|s| format!("# --set {s}\n"))
+        .collect();
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    mps::output::write_atomic(&out.join("case.toml"), format!("{sets}{source}").as_bytes())?;
     let mut rep = Reporter::new(a.quiet, end);
+    rep.render_every = a.render_every;
     let summary = run(&mut sim, &out, &mut rep)
         .with_context(|| format!("writing output to {}", out.display()))?;
     if let Some(b) = &rep.bar {
@@ -297,6 +347,8 @@ fn main() -> ExitCode {
         Command::Bench(a) => bench::cmd_bench(a),
         Command::Compare(a) => compare::cmd_compare(a),
         Command::Render(a) => render::cmd_render(a),
+        Command::Plot(a) => plot::cmd_plot(a),
+        Command::Report(a) => report::cmd_report(a),
     };
     match r {
         Ok(c) => c,

@@ -225,3 +225,116 @@ fn restart_extends_a_run() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("not an MPS checkpoint"));
 }
+
+/// A short run, then `mps render`, `mps plot` and `mps report`: PNG snapshots and charts are
+/// written, and the report is one self-contained HTML page with its tables and images. A
+/// headless Chromium (Debian's, installed by .ci/run) loads it, and its screenshot is not
+/// blank.
+#[test]
+fn render_plot_and_report_a_run() {
+    let dir = std::env::temp_dir().join(format!("mps_cli_report_{}", std::process::id()));
+    let out = mps()
+        .args([
+            "run",
+            "--example",
+            "hydrostatic",
+            "-q",
+            "--set",
+            "time.end=0.05",
+            "--set",
+            "output.interval=0.01",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = mps()
+        .arg("render")
+        .arg(&dir)
+        .args(["--time", "0.02", "--vectors"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let png = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    assert!(png.ends_with(".png") && std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let out = mps().arg("plot").arg(&dir).output().unwrap();
+    assert!(out.status.success());
+    assert!(dir.join("figures/metric_kinetic_energy.png").exists());
+    assert!(dir.join("figures/probe_bottom.png").exists());
+    let out = mps().arg("report").arg(&dir).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
+    assert!(html.matches("<img ").count() >= 10, "images embedded");
+    assert!(html.contains("src=\"data:image/png;base64,"));
+    assert!(html.contains("<th>check</th>") && html.contains("hydrostatic_bottom_pressure"));
+    assert!(
+        !html.contains("src=\"http") && !html.contains("src=\"/"),
+        "no external resources"
+    );
+
+    let chromium = ["chromium", "chromium-browser"].into_iter().find(|c| {
+        Command::new(c)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+    });
+    let Some(chromium) = chromium else {
+        assert!(
+            std::env::var("CI").is_err(),
+            "CI must have chromium (installed by .ci/run)"
+        );
+        eprintln!("chromium not found: headless check skipped outside CI");
+        return;
+    };
+    let shot = dir.join("shot.png");
+    let profile = dir.join("chromium-profile");
+    let status = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--window-size=1000,1400",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("file://{}", dir.join("report.html").display()))
+        .output()
+        .unwrap();
+    assert!(
+        shot.exists(),
+        "no screenshot: {}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let decoder = png::Decoder::new(std::fs::File::open(&shot).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let px = &buf[..info.buffer_size()];
+    let non_white = px
+        .chunks(info.color_type.samples())
+        .filter(|c| c[..3].iter().any(|&v| v < 200))
+        .count();
+    assert!(
+        non_white > 10_000,
+        "screenshot looks blank ({non_white} dark pixels)"
+    );
+}

@@ -6,6 +6,8 @@
 
 pub mod canvas;
 pub mod colormap;
+pub mod plot;
+pub mod report;
 pub mod snapshot;
 
 pub use canvas::Canvas;

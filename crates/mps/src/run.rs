@@ -37,6 +37,8 @@ pub trait Observer {
     fn on_step(&mut self, _p: &Progress) {}
     /// Called with a one-line message (outputs written, breakdown).
     fn on_message(&mut self, _m: &str) {}
+    /// Called after each VTU snapshot is written (its index and path).
+    fn on_snapshot(&mut self, _index: usize, _path: &Path) {}
 }
 
 /// An observer that ignores everything.
@@ -174,6 +176,12 @@ impl Recorder {
         self.flush_series()
     }
 
+    fn notify(&self, observer: &mut dyn Observer) {
+        if let Some((_, f)) = self.snapshots.last() {
+            observer.on_snapshot(self.snapshots.len() - 1, &self.out.join(f));
+        }
+    }
+
     fn record_groups<const D: usize>(&mut self, sim: &Simulation<D>) {
         if !self.group_names.is_empty() {
             let states = group_states(sim, self.group_names.len());
@@ -283,6 +291,7 @@ pub fn run<const D: usize>(
     sample_probes(sim, &mut rec);
     rec.record_groups(sim);
     rec.output(sim)?;
+    rec.notify(observer);
     let m0 = Metrics::measure(sim);
     let groups0 = group_states(sim, rec.group_names.len());
     let mut min_pair = f64::INFINITY;
@@ -330,6 +339,7 @@ pub fn run<const D: usize>(
                 }
                 if sim.time >= next_out - eps && sim.time < end - eps {
                     rec.output(sim)?;
+                    rec.notify(observer);
                     last_output_step = sim.step_count;
                     while next_out <= sim.time + eps {
                         next_out += interval;
@@ -367,6 +377,7 @@ pub fn run<const D: usize>(
         write_atomic(&out.join("breakdown.toml"), record.as_bytes())?;
     } else if sim.step_count != last_output_step || rec.metrics.len() == 1 {
         rec.output(sim)?;
+        rec.notify(observer);
     }
     rec.flush_series()?;
 
@@ -385,18 +396,19 @@ pub fn run<const D: usize>(
                 fcsv.push_str(&format!("{t:.9},{x:.6e}\n"));
             }
             write_atomic(&out.join("front.csv"), fcsv.as_bytes())?;
-            validation.push(ValidationResult {
-                name: "dam_break_front_rms_Z".into(),
-                value: rms,
-                reference: 0.0,
-                error: rms,
-                note: format!(
+            validation.push(ValidationResult::new(
+                "dam_break_front_rms_Z",
+                rms,
+                0.0,
+                rms,
+                0.3,
+                format!(
                     "RMS of Z_sim - Z_exp over {} Martin & Moyce points, l0 = {} m (L/l0 = {:.1})",
                     rows.len(),
                     sim.l0(),
                     column_width / sim.l0()
                 ),
-            });
+            ));
         }
         Some(ValidationSpec::Hydrostatic {
             depth,
@@ -412,12 +424,13 @@ pub fn run<const D: usize>(
             let rho = case.phases[0].density;
             let exact = reference.unwrap_or(rho * sim.gravity.norm() * depth);
             if let Some(mean) = window_mean(&rec.probe_series[k], *window) {
-                validation.push(ValidationResult {
-                    name: "hydrostatic_bottom_pressure".into(),
-                    value: mean,
-                    reference: exact,
-                    error: (mean - exact) / exact,
-                    note: format!(
+                validation.push(ValidationResult::new(
+                    "hydrostatic_bottom_pressure",
+                    mean,
+                    exact,
+                    (mean - exact) / exact,
+                    0.05,
+                    format!(
                         "mean of probe `{probe}` over the last {window} s against {}",
                         if reference.is_some() {
                             "the given reference"
@@ -425,7 +438,7 @@ pub fn run<const D: usize>(
                             "rho g H"
                         }
                     ),
-                });
+                ));
             }
         }
         Some(ValidationSpec::Groups { early_time, .. }) => {
@@ -449,15 +462,16 @@ pub fn run<const D: usize>(
                 }
                 let n = rec.group_names.len().max(1) as f64;
                 let (meas, estimate) = (sum / n, est / n);
-                validation.push(ValidationResult {
-                    name: "group_early_acceleration".into(),
-                    value: meas,
-                    reference: estimate,
-                    error: (meas - estimate) / estimate,
-                    note: format!(
+                validation.push(ValidationResult::new(
+                    "group_early_acceleration",
+                    meas,
+                    estimate,
+                    (meas - estimate) / estimate,
+                    0.3,
+                    format!(
                         "mean |2 dy / t^2| of the group centroids over the first {te:.3} s against g |rho_g - rho_w| / (rho_g + rho_w)"
                     ),
-                });
+                ));
             }
         }
         None => {}

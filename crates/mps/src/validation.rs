@@ -34,6 +34,32 @@ pub struct ValidationResult {
     pub error: f64,
     /// A sentence on how it was measured.
     pub note: String,
+    /// Largest accepted |error| (the acceptance tolerance of the check).
+    pub tolerance: f64,
+    /// Whether |error| is within the tolerance.
+    pub passed: bool,
+}
+
+impl ValidationResult {
+    /// A result whose pass/fail follows from `|error| <= tolerance`.
+    pub fn new(
+        name: &str,
+        value: f64,
+        reference: f64,
+        error: f64,
+        tolerance: f64,
+        note: String,
+    ) -> Self {
+        ValidationResult {
+            name: name.into(),
+            value,
+            reference,
+            error,
+            note,
+            tolerance,
+            passed: error.abs() <= tolerance,
+        }
+    }
 }
 
 /// Linear interpolation in a time series sorted by time; `None` outside it.
