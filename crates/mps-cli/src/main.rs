@@ -167,7 +167,7 @@ impl Observer for Reporter {
     }
     fn on_snapshot(&mut self, index: usize, path: &Path) {
         let Some(n) = self.render_every else { return };
-        if n == 0 || index % n != 0 {
+        if n == 0 || !index.is_multiple_of(n) {
             return;
         }
         let done = std::fs::read(path)
