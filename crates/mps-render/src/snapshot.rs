@@ -39,6 +39,27 @@ pub struct Frame {
     pub phase: Vec<f64>,
 }
 
+/// Particle spacing (m) estimated as the median nearest-neighbour distance of up to 200
+/// sampled particles (for VTU files without a `Spacing` field).
+fn estimate_spacing(p: &[[f64; 2]]) -> Option<f64> {
+    if p.len() < 2 {
+        return None;
+    }
+    let step = (p.len() / 200).max(1);
+    let mut d: Vec<f64> = (0..p.len())
+        .step_by(step)
+        .map(|i| {
+            p.iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, q)| ((q[0] - p[i][0]).powi(2) + (q[1] - p[i][1]).powi(2)).sqrt())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    d.sort_by(f64::total_cmp);
+    Some(d[d.len() / 2])
+}
+
 /// The quantity a snapshot is coloured by.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Field {
@@ -88,10 +109,14 @@ impl Frame {
         let pts = get("Points")?;
         let vel = get("velocity")?;
         let pairs = |v: &[f64]| v.chunks_exact(3).map(|c| [c[0], c[1]]).collect::<Vec<_>>();
+        let position = pairs(&pts);
+        let spacing = read_vtu_field_data(bytes, "Spacing")
+            .or_else(|| estimate_spacing(&position))
+            .ok_or("no Spacing in field data and too few particles to estimate it")?;
         Ok(Frame {
             time: read_vtu_field_data(bytes, "TimeValue").unwrap_or(0.0),
-            spacing: read_vtu_field_data(bytes, "Spacing").ok_or("no Spacing in field data")?,
-            position: pairs(&pts),
+            spacing,
+            position,
             velocity: pairs(&vel),
             kind: get("kind")?.iter().map(|&k| k as u8).collect(),
             pressure: get("pressure")?,
@@ -430,6 +455,15 @@ mod tests {
         assert_eq!(c.get(right, y as u32), BLACK);
         let left = (x - r - 3.0).max(0.0) as u32;
         assert_ne!(c.get(left, y as u32), BLACK);
+    }
+
+    #[test]
+    fn spacing_of_older_files_is_estimated_from_the_lattice() {
+        let p: Vec<[f64; 2]> = (0..400)
+            .map(|k| [(k % 20) as f64 * 0.01, (k / 20) as f64 * 0.01])
+            .collect();
+        assert!((estimate_spacing(&p).unwrap() - 0.01).abs() < 1e-12);
+        assert_eq!(estimate_spacing(&p[..1]), None);
     }
 
     #[test]
