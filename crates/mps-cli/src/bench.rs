@@ -1,14 +1,20 @@
 //! `mps bench`: step time, particle-steps per second, the split of a step and the
-//! 2-thread speed-up, measured in one run.
+//! thread speed-up, measured in one run; with `--ladder`, the same over a ladder of
+//! resolutions with PPE iterations, peak memory and the SpMV and step costs stated against
+//! the machine's measured memory bandwidth (a triad loop).
 
 use crate::{load_case, CaseArgs};
 use anyhow::{Context, Result};
 use clap::Args;
+use mps::case::Case;
+use mps::particles::Kind;
 use mps::simulation::Timers;
 use mps::Simulation;
+use mps_render::plot::{line_chart, Series};
+use rayon::prelude::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Arguments of `mps bench`.
 #[derive(Args)]
@@ -18,21 +24,176 @@ pub struct BenchArgs {
     /// Thread counts to measure, comma-separated.
     #[arg(long, default_value = "1,2", value_delimiter = ',')]
     threads: Vec<usize>,
-    /// Steps to time (default: the case's max_steps, else 200).
+    /// Steps to time (default: the case's max_steps, else 200; with --ladder, between 5
+    /// and 200 so that each rung does about 4 million particle-steps).
     #[arg(long)]
     steps: Option<u64>,
     /// Write the figures as CSV here.
     #[arg(long)]
     csv: Option<PathBuf>,
+    /// Resolution ladder: fluid particle counts, e.g. `1e4,4e4,1.6e5,6.4e5,1e6`; the case's
+    /// spacing (and fixed time step, in proportion) is scaled to reach each.
+    #[arg(long, value_delimiter = ',')]
+    ladder: Vec<f64>,
+    /// With --ladder: write charts of the ladder here (PNG).
+    #[arg(long)]
+    plot: Option<PathBuf>,
 }
 
 struct Row {
     threads: usize,
     particles: usize,
+    fluid: usize,
     steps: u64,
     seconds: f64,
     mean_iterations: f64,
     timers: Timers,
+    /// Peak resident memory during the rung (bytes), if the OS reports it.
+    peak_bytes: Option<u64>,
+    /// Best time of one SpMV with the last PPE matrix, its rows and stored entries.
+    spmv: Option<(Duration, usize, usize)>,
+}
+
+/// Per-step figures of a measurement (ms), and particle-steps per second.
+struct Split {
+    total: f64,
+    nb: f64,
+    asm: f64,
+    setup: f64,
+    sol: f64,
+    rest: f64,
+    pss: f64,
+}
+
+impl Row {
+    fn split(&self) -> Split {
+        let tm = &self.timers;
+        let total = self.ms_per_step();
+        let (nb, asm, setup, sol) = (
+            self.per_step(tm.neighbors),
+            self.per_step(tm.ppe_assembly),
+            self.per_step(tm.ppe_setup),
+            self.per_step(tm.ppe_solve),
+        );
+        Split {
+            total,
+            nb,
+            asm,
+            setup,
+            sol,
+            rest: total - nb - asm - setup - sol,
+            pss: self.particles as f64 * self.steps as f64 / self.seconds,
+        }
+    }
+    fn per_step(&self, d: Duration) -> f64 {
+        1e3 * d.as_secs_f64() / self.steps as f64
+    }
+    fn ms_per_step(&self) -> f64 {
+        1e3 * self.seconds / self.steps as f64
+    }
+}
+
+/// Runs `steps` steps of `case` on `threads` threads after `warmup` untimed ones.
+fn measure(case: &Case, label: &str, threads: usize, steps: u64, warmup: u64) -> Result<Row> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("building the thread pool")?;
+    pool.install(|| -> Result<Row> {
+        reset_peak_memory();
+        let mut sim = Simulation::<2>::new(case.clone(), label)?;
+        sim.keep_system = true;
+        for _ in 0..warmup {
+            sim.step(f64::INFINITY)
+                .map_err(|b| anyhow::anyhow!("{b}"))?;
+        }
+        sim.timers = Timers::default();
+        let start = Instant::now();
+        let mut iters = 0u64;
+        for _ in 0..steps {
+            let r = sim
+                .step(f64::INFINITY)
+                .map_err(|b| anyhow::anyhow!("{b}"))?;
+            iters += r.solve.iterations as u64;
+        }
+        let seconds = start.elapsed().as_secs_f64();
+        let spmv = sim.last_system.as_ref().map(|s| {
+            let a = &s.matrix;
+            let x = vec![1.0; a.n()];
+            let mut y = vec![0.0; a.n()];
+            let best = (0..20)
+                .map(|_| {
+                    let t = Instant::now();
+                    a.spmv(&x, &mut y);
+                    t.elapsed()
+                })
+                .min()
+                .unwrap_or_default();
+            (best, a.n(), a.nnz())
+        });
+        let fluid = sim
+            .particles
+            .kind
+            .iter()
+            .filter(|k| **k == Kind::Fluid)
+            .count();
+        Ok(Row {
+            threads,
+            particles: sim.particles.len(),
+            fluid,
+            steps,
+            seconds,
+            mean_iterations: iters as f64 / steps.max(1) as f64,
+            timers: sim.timers,
+            peak_bytes: peak_memory(),
+            spmv,
+        })
+    })
+}
+
+/// Resets the kernel's peak-RSS mark of this process (Linux; ignored elsewhere).
+fn reset_peak_memory() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// Peak resident memory of this process since the last reset (bytes; Linux only).
+fn peak_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// Memory bandwidth by a STREAM-style triad `a = b + s c` over arrays far larger than the
+/// caches, on `threads` threads: best of five, counting 24 bytes per element (GB/s).
+pub fn triad_bandwidth(threads: usize) -> Result<f64> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("building the thread pool")?;
+    Ok(pool.install(|| {
+        let n = 1 << 23;
+        let b = vec![1.0f64; n];
+        let c = vec![2.0f64; n];
+        let mut a = vec![0.0f64; n];
+        let mut best = f64::INFINITY;
+        for k in 0..6 {
+            let s = 0.5 + k as f64;
+            let t = Instant::now();
+            a.par_chunks_mut(1 << 14)
+                .zip(b.par_chunks(1 << 14).zip(c.par_chunks(1 << 14)))
+                .for_each(|(a, (b, c))| {
+                    for i in 0..a.len() {
+                        a[i] = b[i] + s * c[i];
+                    }
+                });
+            if k > 0 {
+                best = best.min(t.elapsed().as_secs_f64());
+            }
+        }
+        std::hint::black_box(&a);
+        24.0 * n as f64 / best / 1e9
+    }))
 }
 
 pub fn cmd_bench(a: BenchArgs) -> Result<ExitCode> {
@@ -47,80 +208,210 @@ pub fn cmd_bench(a: BenchArgs) -> Result<ExitCode> {
             return Ok(ExitCode::from(1));
         }
     };
+    if !a.ladder.is_empty() {
+        return ladder(&a, &case, &label);
+    }
     let steps = a.steps.or(case.time.max_steps).unwrap_or(200);
     let mut rows = Vec::new();
     for &t in &a.threads {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build()
-            .context("building the thread pool")?;
-        let row = pool.install(|| -> Result<Row> {
-            let mut sim = Simulation::<2>::new(case.clone(), &label)?;
-            let start = Instant::now();
-            let mut iters = 0u64;
-            while sim.step_count < steps {
-                let r = sim
-                    .step(f64::INFINITY)
-                    .map_err(|b| anyhow::anyhow!("{b}"))?;
-                iters += r.solve.iterations as u64;
-            }
-            Ok(Row {
-                threads: t,
-                particles: sim.particles.len(),
-                steps,
-                seconds: start.elapsed().as_secs_f64(),
-                mean_iterations: iters as f64 / steps as f64,
-                timers: sim.timers,
-            })
-        })?;
-        rows.push(row);
+        rows.push(measure(&case, &label, t, steps, 0)?);
     }
     println!(
         "case {label}: {} particles, {steps} steps",
         rows[0].particles
     );
     println!(
-        "{:>7} {:>10} {:>12} {:>9} {:>11} {:>11} {:>11} {:>11} {:>9}",
+        "{:>7} {:>10} {:>12} {:>9} {:>11} {:>11} {:>11} {:>11} {:>11} {:>9} {:>12}",
         "threads",
         "ms/step",
         "Mpart-st/s",
         "PPE it",
         "neighb ms",
         "assemb ms",
+        "setup ms",
         "solve ms",
         "rest ms",
-        "speed-up"
+        "speed-up",
+        "nb+expl s-up"
     );
-    let mut csv = String::from("threads,particles,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,solve_ms,rest_ms,speedup\n");
-    let base = rows[0].seconds;
+    let mut csv = String::from("threads,particles,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,speedup,neighbors_explicit_speedup\n");
+    let base = &rows[0];
+    let explicit = |r: &Row| {
+        let t = &r.timers;
+        r.per_step(t.neighbors + t.explicit + t.density_surface)
+    };
     for r in &rows {
-        let per = |d: std::time::Duration| 1e3 * d.as_secs_f64() / r.steps as f64;
-        let tm = &r.timers;
-        let total = 1e3 * r.seconds / r.steps as f64;
-        let (nb, asm, sol) = (per(tm.neighbors), per(tm.ppe_assembly), per(tm.ppe_solve));
-        let rest = total - nb - asm - sol;
-        let pss = r.particles as f64 * r.steps as f64 / r.seconds;
-        let speedup = base / r.seconds;
-        println!(
-            "{:>7} {:>10.3} {:>12.3} {:>9.1} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>9.2}",
-            r.threads,
+        let Split {
             total,
-            pss / 1e6,
-            r.mean_iterations,
             nb,
             asm,
+            setup,
             sol,
             rest,
-            speedup
+            pss,
+        } = r.split();
+        let speedup = base.seconds / r.seconds;
+        let nb_speedup = explicit(base) / explicit(r);
+        println!(
+            "{:>7} {:>10.3} {:>12.3} {:>9.1} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>9.2} {:>12.2}",
+            r.threads, total, pss / 1e6, r.mean_iterations, nb, asm, setup, sol, rest, speedup, nb_speedup
         );
         csv.push_str(&format!(
-            "{},{},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{sol:.4},{rest:.4},{speedup:.3}\n",
+            "{},{},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{speedup:.3},{nb_speedup:.3}\n",
             r.threads, r.particles, r.steps, r.mean_iterations
         ));
     }
     if let Some(p) = &a.csv {
         mps::output::write_atomic(p, csv.as_bytes())
             .with_context(|| format!("writing {}", p.display()))?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The case at a spacing giving about `target` fluid particles (2D: the count scales as
+/// `l0^-2`); a fixed time step scales with the spacing (constant Courant number).
+fn scaled_case(case: &Case, fluid0: usize, target: f64) -> Case {
+    let mut c = case.clone();
+    let f = (fluid0 as f64 / target).sqrt();
+    c.particles.spacing *= f;
+    if let Some(dt) = c.time.dt_fixed.as_mut() {
+        *dt *= f;
+    }
+    c.time.max_steps = None;
+    c.time.end = f64::INFINITY;
+    c
+}
+
+fn ladder(a: &BenchArgs, case: &Case, label: &str) -> Result<ExitCode> {
+    let fluid0 = Simulation::<2>::new(case.clone(), label)?
+        .particles
+        .kind
+        .iter()
+        .filter(|k| **k == Kind::Fluid)
+        .count();
+    let max_threads = a.threads.iter().copied().max().unwrap_or(1);
+    let triad = triad_bandwidth(max_threads)?;
+    let triad1 = triad_bandwidth(1)?;
+    println!(
+        "case {label}, solver {:?}; triad bandwidth {triad:.2} GB/s on {max_threads} threads, {triad1:.2} GB/s on 1",
+        case.solver.kind
+    );
+    println!(
+        "{:>9} {:>3} {:>6} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>8}",
+        "particles", "thr", "steps", "ms/step", "Mp-st/s", "PPE it", "neighb", "assemb", "setup",
+        "solve", "rest", "ns/p/core", "B/part", "SpMV/bw", "PPE/SpMV", "Mp-s/s/c"
+    );
+    let mut csv = String::from(
+        "particles,fluid,threads,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,non_ppe_ns_per_particle_core,peak_bytes_per_particle,spmv_ms,spmv_gb_per_s,spmv_bandwidth_ratio,ppe_spmv_equivalents,triad_gb_per_s\n",
+    );
+    let mut rows = Vec::new();
+    for &target in &a.ladder {
+        let c = scaled_case(case, fluid0, target);
+        let steps = a.steps.unwrap_or(((4e6 / target) as u64).clamp(5, 200));
+        for &t in &a.threads {
+            let r = measure(&c, label, t, steps, 2)?;
+            let Split {
+                total,
+                nb,
+                asm,
+                setup,
+                sol,
+                rest,
+                pss,
+            } = r.split();
+            // Everything but the PPE (assembly, set-up, solve), per particle and core.
+            let non_ppe_ns = (total - asm - setup - sol) * 1e6 / r.particles as f64 * t as f64;
+            let bytes = r
+                .peak_bytes
+                .map_or(f64::NAN, |b| b as f64 / r.particles as f64);
+            let bw = if t == max_threads { triad } else { triad1 };
+            let (spmv_ms, spmv_gbs, ratio, equiv) = match r.spmv {
+                Some((d, n, nnz)) => {
+                    let s = d.as_secs_f64();
+                    let gbs = (12.0 * nnz as f64 + 20.0 * n as f64) / s / 1e9;
+                    (1e3 * s, gbs, gbs / bw, (setup + sol) / (1e3 * s))
+                }
+                None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
+            };
+            println!(
+                "{:>9} {:>3} {:>6} {:>9.2} {:>8.3} {:>7.1} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>8.0} {:>7.0} {:>7.2} {:>8.1} {:>8.3}",
+                r.particles, t, r.steps, total, pss / 1e6, r.mean_iterations, nb, asm, setup, sol,
+                rest, non_ppe_ns, bytes, ratio, equiv, pss / 1e6 / t as f64
+            );
+            csv.push_str(&format!(
+                "{},{},{t},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{non_ppe_ns:.1},{bytes:.0},{spmv_ms:.4},{spmv_gbs:.3},{ratio:.3},{equiv:.2},{bw:.3}\n",
+                r.particles, r.fluid, r.steps, r.mean_iterations
+            ));
+            rows.push(r);
+        }
+    }
+    if let Some(p) = &a.csv {
+        mps::output::write_atomic(p, csv.as_bytes())
+            .with_context(|| format!("writing {}", p.display()))?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(dir) = &a.plot {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let by_threads = |f: &dyn Fn(&Row) -> f64, what: &str| -> Vec<Series> {
+            a.threads
+                .iter()
+                .map(|&t| Series {
+                    name: format!("{what}, {t} thread(s)"),
+                    points: rows
+                        .iter()
+                        .filter(|r| r.threads == t)
+                        .map(|r| ((r.particles as f64).log10(), f(r)))
+                        .collect(),
+                    markers: false,
+                })
+                .collect()
+        };
+        let charts = [
+            (
+                "bench_iterations",
+                line_chart(
+                    "PPE iterations per step",
+                    "log10(particles)",
+                    "CG iterations",
+                    &by_threads(&|r| r.mean_iterations, "iterations"),
+                    800,
+                    450,
+                ),
+            ),
+            (
+                "bench_time_per_particle",
+                line_chart(
+                    "time per particle-step",
+                    "log10(particles)",
+                    "ns per particle-step",
+                    &[
+                        by_threads(
+                            &|r| r.seconds / r.steps as f64 / r.particles as f64 * 1e9,
+                            "whole step",
+                        ),
+                        by_threads(
+                            &|r| {
+                                let t = &r.timers;
+                                (t.ppe_assembly + t.ppe_setup + t.ppe_solve).as_secs_f64()
+                                    / r.steps as f64
+                                    / r.particles as f64
+                                    * 1e9
+                            },
+                            "PPE",
+                        ),
+                    ]
+                    .concat(),
+                    800,
+                    450,
+                ),
+            ),
+        ];
+        for (name, c) in charts {
+            let p = dir.join(format!("{name}.png"));
+            c.write_png(&p)
+                .with_context(|| format!("writing {}", p.display()))?;
+            println!("wrote {}", p.display());
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

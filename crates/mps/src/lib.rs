@@ -14,6 +14,7 @@
 // Index loops over components and particles read like the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod amg;
 pub mod analytic;
 pub mod case;
 pub mod checkpoint;

@@ -2,6 +2,7 @@
 //! preconditioned conjugate gradient. Every reduction runs in a fixed order (fixed-size
 //! chunks summed in sequence), so results do not depend on the number of threads.
 
+use crate::amg::Amg;
 use rayon::prelude::*;
 
 /// Elements per chunk of a deterministic parallel reduction.
@@ -75,6 +76,74 @@ impl CsrMatrix {
             })
             .fold(0.0, f64::max)
     }
+}
+
+/// Transpose of an `n x ncols` CSR matrix (an `ncols x n` matrix, columns sorted).
+pub fn transpose(a: &CsrMatrix, ncols: usize) -> CsrMatrix {
+    let mut count = vec![0u32; ncols + 1];
+    for &j in &a.col {
+        count[j as usize + 1] += 1;
+    }
+    for k in 0..ncols {
+        count[k + 1] += count[k];
+    }
+    let row_ptr = count.clone();
+    let mut next = count;
+    let mut col = vec![0u32; a.nnz()];
+    let mut val = vec![0.0; a.nnz()];
+    for i in 0..a.n() {
+        let (c, v) = a.row(i);
+        for (&j, &x) in c.iter().zip(v) {
+            let slot = next[j as usize] as usize;
+            col[slot] = i as u32;
+            val[slot] = x;
+            next[j as usize] += 1;
+        }
+    }
+    CsrMatrix { row_ptr, col, val }
+}
+
+/// Sparse product `A B` of CSR matrices, `B` with `ncols` columns; parallel over rows of
+/// `A`, each row accumulated in a dense scratch row (Gustavson's algorithm).
+pub fn spgemm(a: &CsrMatrix, b: &CsrMatrix, ncols: usize) -> CsrMatrix {
+    let rows: Vec<(Vec<u32>, Vec<f64>)> = (0..a.n())
+        .into_par_iter()
+        .map_init(
+            || (vec![u32::MAX; ncols], vec![0.0f64; ncols]),
+            |(mark, acc), i| {
+                let mut cols: Vec<u32> = Vec::new();
+                let (ca, va) = a.row(i);
+                for (&k, &x) in ca.iter().zip(va) {
+                    let (cb, vb) = b.row(k as usize);
+                    for (&j, &y) in cb.iter().zip(vb) {
+                        let j = j as usize;
+                        if mark[j] != i as u32 {
+                            mark[j] = i as u32;
+                            acc[j] = 0.0;
+                            cols.push(j as u32);
+                        }
+                        acc[j] += x * y;
+                    }
+                }
+                cols.sort_unstable();
+                let vals = cols.iter().map(|&j| acc[j as usize]).collect();
+                (cols, vals)
+            },
+        )
+        .collect();
+    let mut out = CsrMatrix {
+        row_ptr: Vec::with_capacity(a.n() + 1),
+        col: Vec::with_capacity(rows.iter().map(|r| r.0.len()).sum()),
+        val: Vec::new(),
+    };
+    out.val.reserve(out.col.capacity());
+    out.row_ptr.push(0);
+    for (c, v) in rows {
+        out.col.extend_from_slice(&c);
+        out.val.extend_from_slice(&v);
+        out.row_ptr.push(out.col.len() as u32);
+    }
+    out
 }
 
 /// Dot product in a fixed summation order.
@@ -183,10 +252,24 @@ pub enum Preconditioner {
     Jacobi(Vec<f64>),
     /// Incomplete Cholesky.
     Ic0(Ic0),
+    /// Smoothed-aggregation algebraic multigrid, one V-cycle.
+    Amg(Amg),
 }
 
-impl Preconditioner {
-    fn apply(&self, r: &[f64], z: &mut [f64]) {
+/// Anything that applies an approximate inverse `z = M^-1 r` of the matrix `a` inside CG.
+pub trait Precondition {
+    /// `z = M^-1 r` (`M` symmetric positive definite, built for `a`).
+    fn apply(&self, a: &CsrMatrix, r: &[f64], z: &mut [f64]);
+}
+
+impl Precondition for Amg {
+    fn apply(&self, a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
+        Amg::apply(self, a, r, z)
+    }
+}
+
+impl Precondition for Preconditioner {
+    fn apply(&self, a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
         match self {
             Preconditioner::Identity => z.copy_from_slice(r),
             Preconditioner::Jacobi(d) => z
@@ -198,6 +281,7 @@ impl Preconditioner {
                     }
                 }),
             Preconditioner::Ic0(f) => f.apply(r, z),
+            Preconditioner::Amg(h) => h.apply(a, r, z),
         }
     }
 }
@@ -224,7 +308,7 @@ pub fn pcg(
     a: &CsrMatrix,
     b: &[f64],
     x: &mut [f64],
-    m: &Preconditioner,
+    m: &impl Precondition,
     tol: f64,
     max_iter: usize,
 ) -> Result<SolveStats, NotConverged> {
@@ -246,7 +330,7 @@ pub fn pcg(
             residual: rnorm / bnorm,
         });
     }
-    m.apply(&r, &mut z);
+    m.apply(a, &r, &mut z);
     let mut p = z.clone();
     let mut rz = dot(&r, &z);
     for it in 1..=max_iter {
@@ -275,7 +359,7 @@ pub fn pcg(
                 residual: rnorm / bnorm,
             });
         }
-        m.apply(&r, &mut z);
+        m.apply(a, &r, &mut z);
         let rz_new = dot(&r, &z);
         let beta = rz_new / rz;
         rz = rz_new;

@@ -339,6 +339,9 @@ pub fn run<const D: usize>(
                 }
                 if sim.time >= next_out - eps && sim.time < end - eps {
                     rec.output(sim)?;
+                    // The checkpoint holds no solver set-up: drop it here too, so a run
+                    // restarted from this checkpoint continues bit-identically.
+                    sim.reset_solver_cache();
                     rec.notify(observer);
                     last_output_step = sim.step_count;
                     while next_out <= sim.time + eps {

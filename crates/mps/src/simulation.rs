@@ -2,6 +2,7 @@
 //! neighbours -> explicit forces -> number density and free surface -> PPE -> pressure
 //! gradient and stabilization -> correction -> breakdown checks.
 
+use crate::amg::{Amg, AmgParams};
 use crate::case::{Case, CaseError, GradientModel, SolverKind, WallPressure};
 use crate::fields::{Fields, Kernels};
 use crate::gradient::{p_hat, pressure_acceleration};
@@ -33,7 +34,9 @@ pub struct Timers {
     pub density_surface: Duration,
     /// PPE assembly.
     pub ppe_assembly: Duration,
-    /// Preconditioner set-up and CG iterations.
+    /// Preconditioner set-up (IC(0) factorisation, AMG hierarchy).
+    pub ppe_setup: Duration,
+    /// CG iterations.
     pub ppe_solve: Duration,
     /// Pressure gradient and DS.
     pub gradient: Duration,
@@ -48,17 +51,19 @@ impl Timers {
             + self.explicit
             + self.density_surface
             + self.ppe_assembly
+            + self.ppe_setup
             + self.ppe_solve
             + self.gradient
             + self.correction
     }
     /// (name, duration) of each stage, in step order.
-    pub fn stages(&self) -> [(&'static str, Duration); 7] {
+    pub fn stages(&self) -> [(&'static str, Duration); 8] {
         [
             ("neighbour search", self.neighbors),
             ("explicit forces", self.explicit),
             ("number density + surface", self.density_surface),
             ("PPE assembly", self.ppe_assembly),
+            ("PPE solver set-up", self.ppe_setup),
             ("PPE solve", self.ppe_solve),
             ("pressure gradient + DS", self.gradient),
             ("correction + checks", self.correction),
@@ -188,9 +193,30 @@ pub struct Simulation<const D: usize> {
     pub timers: Timers,
     /// Report of the last step.
     pub last: StepReport,
+    /// Keep each step's assembled PPE in `last_system` (for benchmarks and solver tests).
+    pub keep_system: bool,
+    /// The PPE of the last step, when `keep_system` is set.
+    pub last_system: Option<crate::ppe::PressureSystem>,
     neighbors: NeighborList,
     skin: f64,
+    amg_cache: Option<AmgCache>,
 }
+
+/// An AMG hierarchy kept from an earlier step and the rule for reusing it.
+#[derive(Debug)]
+struct AmgCache {
+    /// The unknowns it was built for (row -> particle).
+    particle_of: Vec<u32>,
+    /// The hierarchy.
+    amg: Amg,
+    /// CG iterations of the solve right after the set-up.
+    setup_iterations: usize,
+    /// Steps it has been reused.
+    age: u32,
+}
+
+/// Steps an AMG hierarchy may be reused for when the unknowns are unchanged.
+const AMG_MAX_AGE: u32 = 10;
 
 impl<const D: usize> Simulation<D> {
     /// Builds the particles of `case` and prepares the run; `label` names the case in errors.
@@ -252,6 +278,9 @@ impl<const D: usize> Simulation<D> {
             last: StepReport::default(),
             neighbors: NeighborList::default(),
             skin: 0.3 * l0,
+            amg_cache: None,
+            keep_system: false,
+            last_system: None,
         };
         sim.reorder();
         sim.refresh_diagnostic_fields();
@@ -265,6 +294,12 @@ impl<const D: usize> Simulation<D> {
 
     fn cutoff(&self) -> f64 {
         self.kernels.grad.re.max(self.kernels.lap.re) + self.skin
+    }
+
+    /// Drops any kept solver set-up (the AMG hierarchy), so the next step builds it afresh;
+    /// called where a checkpoint is written, so a restarted run continues bit-identically.
+    pub fn reset_solver_cache(&mut self) {
+        self.amg_cache = None;
     }
 
     fn reorder(&mut self) {
@@ -502,28 +537,84 @@ impl<const D: usize> Simulation<D> {
             .iter()
             .map(|&i| p.pressure[i as usize])
             .collect();
-        let sv = &self.case.solver;
-        let pre = match sv.kind {
-            SolverKind::Cg => Preconditioner::Identity,
-            SolverKind::JacobiCg => {
-                Preconditioner::Jacobi(sys.matrix.diagonal().iter().map(|d| 1.0 / d).collect())
-            }
-            SolverKind::Ic0Cg => match Ic0::new(&sys.matrix) {
-                Some(f) => Preconditioner::Ic0(f),
-                None => {
-                    Preconditioner::Jacobi(sys.matrix.diagonal().iter().map(|d| 1.0 / d).collect())
-                }
-            },
+        let tol = self.case.solver.tolerance;
+        let max_iter = self.case.solver.max_iterations;
+        let jacobi = |m: &crate::linsolve::CsrMatrix| {
+            Preconditioner::Jacobi(m.diagonal().iter().map(|d| 1.0 / d).collect())
         };
-        let solve = pcg(
-            &sys.matrix,
-            &sys.rhs,
-            &mut x,
-            &pre,
-            sv.tolerance,
-            sv.max_iterations,
-        );
-        self.timers.ppe_solve += t0.elapsed();
+        let kind = match self.case.solver.kind {
+            SolverKind::Auto if sys.matrix.n() >= crate::case::AUTO_AMG_UNKNOWNS => {
+                SolverKind::AmgCg
+            }
+            SolverKind::Auto => SolverKind::Ic0Cg,
+            k => k,
+        };
+        let solve = match kind {
+            SolverKind::AmgCg => {
+                // Reuse the hierarchy while the unknowns are the same particles and it still
+                // converges as fast as right after its set-up; rebuild otherwise.
+                let reusable = self.amg_cache.as_ref().is_some_and(|c| {
+                    c.particle_of == sys.particle_of
+                        && c.age < AMG_MAX_AGE
+                        && 2 * self.last.solve.iterations <= 3 * c.setup_iterations.max(4)
+                });
+                if reusable {
+                    let c = self.amg_cache.as_mut().expect("checked");
+                    c.amg.refresh_fine(&sys.matrix);
+                    c.age += 1;
+                    self.timers.ppe_setup += t0.elapsed();
+                    let t1 = Instant::now();
+                    let s = pcg(&sys.matrix, &sys.rhs, &mut x, &c.amg, tol, max_iter);
+                    self.timers.ppe_solve += t1.elapsed();
+                    s
+                } else {
+                    self.amg_cache = None;
+                    match Amg::new(&sys.matrix, AmgParams::default()) {
+                        Some(amg) => {
+                            self.timers.ppe_setup += t0.elapsed();
+                            let t1 = Instant::now();
+                            let s = pcg(&sys.matrix, &sys.rhs, &mut x, &amg, tol, max_iter);
+                            self.timers.ppe_solve += t1.elapsed();
+                            if let Ok(st) = s {
+                                self.amg_cache = Some(AmgCache {
+                                    particle_of: sys.particle_of.clone(),
+                                    amg,
+                                    setup_iterations: st.iterations,
+                                    age: 0,
+                                });
+                            }
+                            s
+                        }
+                        None => {
+                            let pre = jacobi(&sys.matrix);
+                            self.timers.ppe_setup += t0.elapsed();
+                            let t1 = Instant::now();
+                            let s = pcg(&sys.matrix, &sys.rhs, &mut x, &pre, tol, max_iter);
+                            self.timers.ppe_solve += t1.elapsed();
+                            s
+                        }
+                    }
+                }
+            }
+            kind => {
+                let pre = match kind {
+                    SolverKind::Cg => Preconditioner::Identity,
+                    SolverKind::Ic0Cg => match Ic0::new(&sys.matrix) {
+                        Some(f) => Preconditioner::Ic0(f),
+                        None => jacobi(&sys.matrix),
+                    },
+                    _ => jacobi(&sys.matrix),
+                };
+                self.timers.ppe_setup += t0.elapsed();
+                let t1 = Instant::now();
+                let s = pcg(&sys.matrix, &sys.rhs, &mut x, &pre, tol, max_iter);
+                self.timers.ppe_solve += t1.elapsed();
+                s
+            }
+        };
+        if self.keep_system {
+            self.last_system = Some(sys.clone());
+        }
         report.solve = match solve {
             Ok(s) => s,
             Err(e) => {
