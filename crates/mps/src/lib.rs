@@ -29,6 +29,7 @@ pub mod linsolve;
 pub mod neighbors;
 pub mod operators;
 pub mod output;
+pub mod parallel;
 pub mod particles;
 pub mod ppe;
 pub mod run;

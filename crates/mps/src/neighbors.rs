@@ -167,16 +167,9 @@ pub fn build_neighbor_list<const D: usize>(points: &[Vector<D>], cutoff: f64) ->
             (counts, list)
         })
         .collect();
-    let total: usize = chunks.iter().map(|c| c.1.len()).sum();
-    let mut offsets = Vec::with_capacity(n + 1);
-    let mut indices = Vec::with_capacity(total);
-    offsets.push(0u32);
-    for (counts, list) in chunks {
-        for cnt in counts {
-            offsets.push(offsets.last().unwrap() + cnt);
-        }
-        indices.extend_from_slice(&list);
-    }
+    let (counts, lists): (Vec<Vec<u32>>, Vec<Vec<u32>>) = chunks.into_iter().unzip();
+    let offsets = crate::parallel::offsets(&counts);
+    let indices = crate::parallel::concat(&lists);
     NeighborList {
         offsets,
         indices,

@@ -194,18 +194,19 @@ pub fn assemble<const D: usize>(
             (lens, cols, vals, rhs)
         })
         .collect();
-    let mut m = CsrMatrix::default();
-    let mut b = Vec::with_capacity(rows);
-    m.row_ptr.reserve(rows + 1);
-    m.row_ptr.push(0);
-    for (lens, cols, vals, rhs) in parts {
-        for l in lens {
-            m.row_ptr.push(m.row_ptr.last().unwrap() + l);
-        }
-        m.col.extend_from_slice(&cols);
-        m.val.extend_from_slice(&vals);
-        b.extend_from_slice(&rhs);
+    let (mut lens, mut cols, mut vals, mut rhs) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (l, c, v, r) in parts {
+        lens.push(l);
+        cols.push(c);
+        vals.push(v);
+        rhs.push(r);
     }
+    let m = CsrMatrix {
+        row_ptr: crate::parallel::offsets(&lens),
+        col: crate::parallel::concat(&cols),
+        val: crate::parallel::concat(&vals),
+    };
+    let b = crate::parallel::concat(&rhs);
     PressureSystem {
         matrix: m,
         rhs: b,

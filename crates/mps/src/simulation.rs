@@ -446,6 +446,8 @@ impl<const D: usize> Simulation<D> {
         if self.step_count.is_multiple_of(REORDER_EVERY) {
             self.reorder();
         }
+        // The old list goes first, so the two never coexist (peak memory).
+        self.neighbors = NeighborList::default();
         self.neighbors = build_neighbor_list(&self.particles.position, self.cutoff());
         self.timers.neighbors += t0.elapsed();
 
@@ -462,6 +464,7 @@ impl<const D: usize> Simulation<D> {
         }
         if 2.0 * max_move > self.skin {
             let t0 = Instant::now();
+            self.neighbors = NeighborList::default();
             self.neighbors = build_neighbor_list(&pos, self.cutoff());
             self.timers.neighbors += t0.elapsed();
         }
@@ -612,9 +615,6 @@ impl<const D: usize> Simulation<D> {
                 s
             }
         };
-        if self.keep_system {
-            self.last_system = Some(sys.clone());
-        }
         report.solve = match solve {
             Ok(s) => s,
             Err(e) => {
@@ -645,6 +645,8 @@ impl<const D: usize> Simulation<D> {
                 }
             })
             .collect();
+        // The PPE is done with: keep it when asked, free it otherwise (lower peak memory).
+        let kept_system = self.keep_system.then_some(sys);
         // Pressures of wall and dummy particles for the gradient (module `walls`).
         let wall_model = self.scheme.wall_pressure;
         let g = self.gravity;
@@ -749,6 +751,9 @@ impl<const D: usize> Simulation<D> {
         p.free_surface = surface;
         self.timers.correction += t0.elapsed();
         report.max_speed = result?;
+        if kept_system.is_some() {
+            self.last_system = kept_system;
+        }
         Ok(report)
     }
 
