@@ -370,7 +370,7 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str) -> Result<ExitCode> {
             (
                 "bench_iterations",
                 line_chart(
-                    "PPE iterations per step",
+                    "PPE iterations per step (y axis not from 0)",
                     "log10(particles)",
                     "CG iterations",
                     &by_threads(&|r| r.mean_iterations, "iterations"),

@@ -262,7 +262,8 @@ pub enum DsWeighting {
 pub struct DsSpec {
     /// Switch DS on or off (default: from the preset).
     pub enabled: Option<bool>,
-    /// Threshold fraction `alpha_DS` of the particle diameter (default 0.9).
+    /// Threshold fraction `alpha_DS` of the particle diameter (default `1 - time.courant`,
+    /// paper Eq. 9: 0.9 at the default Courant number 0.1; 0.9 with a fixed time step).
     pub alpha: Option<f64>,
     /// Pair-term weighting (default `kernel`).
     pub weighting: Option<DsWeighting>,

@@ -222,12 +222,20 @@ impl<const D: usize> Simulation<D> {
     /// Builds the particles of `case` and prepares the run; `label` names the case in errors.
     pub fn new(case: Case, label: &str) -> Result<Self, CaseError> {
         let particles = crate::setup::build_particles::<D>(&case, label)?;
-        let scheme = Scheme::from_spec(&case.scheme).map_err(|e| CaseError {
+        let mut scheme = Scheme::from_spec(&case.scheme).map_err(|e| CaseError {
             file: label.into(),
             field: e.0,
             value: e.1,
             message: e.2,
         })?;
+        // Paper Eq. 9: alpha_DS + alpha_dt = 1, alpha_dt the Courant number of the time
+        // step, so a pair is treated once it closes by more than one step's travel. Applies
+        // when the case gives no threshold and the step follows the Courant condition.
+        if let Some(ds) = scheme.ds.as_mut() {
+            if case.scheme.ds.alpha.is_none() && case.time.dt_fixed.is_none() {
+                ds.alpha = (1.0 - case.time.courant).clamp(0.5, 0.99);
+            }
+        }
         let l0 = case.particles.spacing;
         let kernels = Kernels::new::<D>(l0, case.particles.re_grad, case.particles.re_lap);
         let gravity = Vector::from_slice(&case.physics.gravity).expect("validated");

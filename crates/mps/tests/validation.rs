@@ -181,15 +181,17 @@ fn two_layer_tank_stays_at_rest() {
 }
 
 /// Settling groups (2650 in water) with MPS-HS-GC-DS at the paper's resolution (l0 = 2.5 mm,
-/// 7000 fluid particles), to t = 2 s (issue 4): no breakdown, the mean group centroid within
-/// 0.03 m of the bottom, the centroids' early acceleration (first 0.05 s) within 30 % of
-/// g (rho_g - rho_w)/(rho_g + rho_w) = 4.43 m/s^2. Surfacing groups (600 in water): the early
-/// acceleration within 30 % of 2.45 m/s^2 over a 0.1 s run (their 2 s arrival falls 3 mm
-/// short of the 0.03 m criterion at present: see the issue notes).
+/// 7000 fluid particles, Courant 0.03 so alpha_DS = 0.97 by paper Eq. 9), issue 4: no
+/// breakdown; the mean group centroid within 0.03 m of the bottom already at t = 1 s (the
+/// issue asks by 2 s; the shorter run saves CI time and is the stricter test); stray fraction
+/// below 0.12 at 0.5 s; the centroids' early acceleration (first 0.05 s) within 30 % of
+/// g (rho_g - rho_w)/(rho_g + rho_w) = 4.43 m/s^2. Surfacing groups (600 in water) to 2 s:
+/// the mean centroid within 0.03 m of the free surface, early acceleration within 30 % of
+/// 2.45 m/s^2.
 #[test]
 #[ignore = "validation run (release mode): cargo test --release -- --ignored"]
 fn settling_and_surfacing_groups() {
-    for (case, end) in [("settling", "2.0"), ("surfacing", "0.1")] {
+    for (case, end) in [("settling", "1.0"), ("surfacing", "2.0")] {
         let mut s = sim(case, &[("output.vtu", "false"), ("time.end", end)]);
         let dir = tmp(case);
         let summary = run(&mut s, &dir, &mut Silent).unwrap();
@@ -221,6 +223,33 @@ fn settling_and_surfacing_groups() {
             assert!(
                 mean_y < 0.03,
                 "settling: mean centroid at {mean_y} m above the bottom"
+            );
+            // Group coherence: the fraction of group particles with no same-phase neighbour
+            // at t = 0.5 s. Measured 0.07 with DS at alpha_DS = 1 - Courant = 0.97; with
+            // Courant 0.1 and alpha_DS = 0.9 it was 0.26.
+            let text = std::fs::read_to_string(dir.join("groups.csv")).unwrap();
+            let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+            let col = header.iter().position(|h| *h == "stray_fraction").unwrap();
+            let at = |t: f64| {
+                text.lines()
+                    .skip(1)
+                    .map(|l| {
+                        l.split(',')
+                            .map(|v| v.parse::<f64>().unwrap())
+                            .collect::<Vec<_>>()
+                    })
+                    .min_by(|a, b| (a[0] - t).abs().total_cmp(&(b[0] - t).abs()))
+                    .map(|r| r[col])
+                    .unwrap()
+            };
+            let (s05, s10) = (at(0.5), at(1.0));
+            eprintln!("settling stray fraction: {s05:.3} at 0.5 s, {s10:.3} at 1 s");
+            assert!(s05 < 0.12, "settling: stray fraction {s05} at 0.5 s");
+        } else {
+            let below = 0.175 - mean_y;
+            assert!(
+                below < 0.03,
+                "surfacing: mean centroid {below} m below the free surface at {end} s"
             );
         }
     }
