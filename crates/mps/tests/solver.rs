@@ -428,3 +428,31 @@ fn amg_iterations_stay_flat_from_16k_to_256k_particles() {
         "AMG-CG iterations 16k -> 256k: {its:?}"
     );
 }
+
+/// The run lands on its end time without a sliver of a last step: every step is at least
+/// half the regular one (the drift term of the source scales as 1/dt^2, so a sliver kicks
+/// every particle), and the end time is reached exactly.
+#[test]
+fn last_steps_share_the_remainder() {
+    let mut s = sim("hydrostatic", &[("scheme.name", "MPS-HS-GC-DS")]);
+    let dt = 1e-3; // the case's fixed step
+    let until = 0.01001; // ten steps and a hundredth of one
+    while s.time < until - 1e-12 {
+        let r = s.step(until).unwrap();
+        assert!(r.dt >= 0.5 * dt - 1e-15, "step of {} s", r.dt);
+    }
+    assert!((s.time - until).abs() < 1e-12, "ended at {}", s.time);
+}
+
+/// DS threshold from paper Eq. 9 (alpha_DS = 1 - Courant) when the case gives none and the
+/// step is Courant-controlled; an explicit threshold wins.
+#[test]
+fn ds_threshold_follows_the_courant_number() {
+    let alpha = |set: &[(&str, &str)]| sim("square_patch", set).scheme.ds.unwrap().alpha;
+    assert!((alpha(&[]) - 0.9).abs() < 1e-12);
+    assert!((alpha(&[("time.courant", "0.03")]) - 0.97).abs() < 1e-12);
+    assert_eq!(
+        alpha(&[("time.courant", "0.03"), ("scheme.ds.alpha", "0.95")]),
+        0.95
+    );
+}
