@@ -3,14 +3,13 @@
 //! resolutions with PPE iterations, peak memory and the SpMV and step costs stated against
 //! the machine's measured memory bandwidth (a triad loop).
 
+use crate::failure::{bad, io_error, CmdResult, Failure};
 use crate::{load_case, CaseArgs};
-use anyhow::{Context, Result};
 use clap::Args;
-use mps::case::Case;
 use mps::particles::Kind;
-use mps::simulation::Timers;
-use mps::Simulation;
-use mps_render::plot::{line_chart, Series};
+use mps::simulation::{Stage, Timers};
+use mps::{Case, Simulation};
+use mps_render::plot::{line_chart_svg, Chart, Series};
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -35,7 +34,7 @@ pub struct BenchArgs {
     /// spacing (and fixed time step, in proportion) is scaled to reach each.
     #[arg(long, value_delimiter = ',')]
     ladder: Vec<f64>,
-    /// With --ladder: write charts of the ladder here (PNG).
+    /// With --ladder: write charts of the ladder here (SVG, logarithmic particle axis).
     #[arg(long)]
     plot: Option<PathBuf>,
 }
@@ -70,10 +69,10 @@ impl Row {
         let tm = &self.timers;
         let total = self.ms_per_step();
         let (nb, asm, setup, sol) = (
-            self.per_step(tm.neighbors),
-            self.per_step(tm.ppe_assembly),
-            self.per_step(tm.ppe_setup),
-            self.per_step(tm.ppe_solve),
+            self.per_step(tm.get(Stage::Neighbors)),
+            self.per_step(tm.get(Stage::PpeAssembly)),
+            self.per_step(tm.get(Stage::PpeSetup)),
+            self.per_step(tm.get(Stage::PpeSolve)),
         );
         Split {
             total,
@@ -94,26 +93,30 @@ impl Row {
 }
 
 /// Runs `steps` steps of `case` on `threads` threads after `warmup` untimed ones.
-fn measure(case: &Case, label: &str, threads: usize, steps: u64, warmup: u64) -> Result<Row> {
+fn measure(
+    case: &Case,
+    label: &str,
+    threads: usize,
+    steps: u64,
+    warmup: u64,
+) -> Result<Row, Failure> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .context("building the thread pool")?;
-    pool.install(|| -> Result<Row> {
+        .map_err(|e| bad(format!("--threads {threads}: {e}")))?;
+    let broke = |b: mps::Breakdown| bad(format!("{label}: the benchmark run broke down: {b}"));
+    pool.install(|| -> Result<Row, Failure> {
         reset_peak_memory();
         let mut sim = Simulation::<2>::new(case.clone(), label)?;
         sim.keep_system = true;
         for _ in 0..warmup {
-            sim.step(f64::INFINITY)
-                .map_err(|b| anyhow::anyhow!("{b}"))?;
+            sim.step(f64::INFINITY).map_err(broke)?;
         }
         sim.timers = Timers::default();
         let start = Instant::now();
         let mut iters = 0u64;
         for _ in 0..steps {
-            let r = sim
-                .step(f64::INFINITY)
-                .map_err(|b| anyhow::anyhow!("{b}"))?;
+            let r = sim.step(f64::INFINITY).map_err(broke)?;
             iters += r.solve.iterations as u64;
         }
         let seconds = start.elapsed().as_secs_f64();
@@ -166,11 +169,11 @@ fn peak_memory() -> Option<u64> {
 
 /// Memory bandwidth by a STREAM-style triad `a = b + s c` over arrays far larger than the
 /// caches, on `threads` threads: best of five, counting 24 bytes per element (GB/s).
-pub fn triad_bandwidth(threads: usize) -> Result<f64> {
+pub fn triad_bandwidth(threads: usize) -> Result<f64, Failure> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .context("building the thread pool")?;
+        .map_err(|e| bad(format!("--threads {threads}: {e}")))?;
     Ok(pool.install(|| {
         let n = 1 << 23;
         let b = vec![1.0f64; n];
@@ -196,18 +199,18 @@ pub fn triad_bandwidth(threads: usize) -> Result<f64> {
     }))
 }
 
-pub fn cmd_bench(a: BenchArgs) -> Result<ExitCode> {
+pub fn cmd_bench(a: BenchArgs) -> CmdResult {
     let mut args = a.case.clone();
     if args.case.is_none() && args.example.is_none() {
         args.example = Some("bench_dam_break".into());
     }
-    let (case, label) = match load_case(&args) {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return Ok(ExitCode::from(1));
-        }
-    };
+    let (case, label) = load_case(&args)?;
+    if a.threads.iter().any(|&t| t == 0 || t > 1024) {
+        return Err(bad("--threads: thread counts from 1 to 1024"));
+    }
+    if a.ladder.iter().any(|&n| !(100.0..=1e9).contains(&n)) {
+        return Err(bad("--ladder: fluid particle counts from 100 to 1e9"));
+    }
     if !a.ladder.is_empty() {
         return ladder(&a, &case, &label);
     }
@@ -238,7 +241,7 @@ pub fn cmd_bench(a: BenchArgs) -> Result<ExitCode> {
     let base = &rows[0];
     let explicit = |r: &Row| {
         let t = &r.timers;
-        r.per_step(t.neighbors + t.explicit + t.density_surface)
+        r.per_step(t.get(Stage::Neighbors) + t.get(Stage::Explicit) + t.get(Stage::DensitySurface))
     };
     for r in &rows {
         let Split {
@@ -262,8 +265,7 @@ pub fn cmd_bench(a: BenchArgs) -> Result<ExitCode> {
         ));
     }
     if let Some(p) = &a.csv {
-        mps::output::write_atomic(p, csv.as_bytes())
-            .with_context(|| format!("writing {}", p.display()))?;
+        mps::io::write_atomic(p, csv.as_bytes())?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -282,7 +284,7 @@ fn scaled_case(case: &Case, fluid0: usize, target: f64) -> Case {
     c
 }
 
-fn ladder(a: &BenchArgs, case: &Case, label: &str) -> Result<ExitCode> {
+fn ladder(a: &BenchArgs, case: &Case, label: &str) -> CmdResult {
     let fluid0 = Simulation::<2>::new(case.clone(), label)?
         .particles
         .kind
@@ -346,72 +348,79 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str) -> Result<ExitCode> {
         }
     }
     if let Some(p) = &a.csv {
-        mps::output::write_atomic(p, csv.as_bytes())
-            .with_context(|| format!("writing {}", p.display()))?;
+        mps::io::write_atomic(p, csv.as_bytes())?;
         println!("wrote {}", p.display());
     }
     if let Some(dir) = &a.plot {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let by_threads = |f: &dyn Fn(&Row) -> f64, what: &str| -> Vec<Series> {
-            a.threads
-                .iter()
-                .map(|&t| Series {
-                    name: format!("{what}, {t} thread(s)"),
-                    points: rows
-                        .iter()
-                        .filter(|r| r.threads == t)
-                        .map(|r| ((r.particles as f64).log10(), f(r)))
-                        .collect(),
-                    markers: false,
-                })
-                .collect()
-        };
-        let charts = [
-            (
-                "bench_iterations",
-                line_chart(
-                    "PPE iterations per step (y axis not from 0)",
-                    "log10(particles)",
-                    "CG iterations",
-                    &by_threads(&|r| r.mean_iterations, "iterations"),
-                    800,
-                    450,
-                ),
-            ),
-            (
-                "bench_time_per_particle",
-                line_chart(
-                    "time per particle-step",
-                    "log10(particles)",
-                    "ns per particle-step",
-                    &[
-                        by_threads(
-                            &|r| r.seconds / r.steps as f64 / r.particles as f64 * 1e9,
-                            "whole step",
-                        ),
-                        by_threads(
-                            &|r| {
-                                let t = &r.timers;
-                                (t.ppe_assembly + t.ppe_setup + t.ppe_solve).as_secs_f64()
-                                    / r.steps as f64
-                                    / r.particles as f64
-                                    * 1e9
-                            },
-                            "PPE",
-                        ),
-                    ]
-                    .concat(),
-                    800,
-                    450,
-                ),
-            ),
-        ];
-        for (name, c) in charts {
-            let p = dir.join(format!("{name}.png"));
-            c.write_png(&p)
-                .with_context(|| format!("writing {}", p.display()))?;
-            println!("wrote {}", p.display());
-        }
+        ladder_charts(a, &rows, dir)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Charts of a ladder over the particle count (logarithmic axis): iterations, and time per
+/// particle-step of the whole step and of the PPE.
+fn ladder_charts(a: &BenchArgs, rows: &[Row], dir: &std::path::Path) -> Result<(), Failure> {
+    std::fs::create_dir_all(dir).map_err(|e| io_error(dir, e))?;
+    let by_threads = |f: &dyn Fn(&Row) -> f64, what: &str| -> Vec<Series> {
+        a.threads
+            .iter()
+            .map(|&t| Series {
+                name: format!("{what}, {t} thread(s)"),
+                points: rows
+                    .iter()
+                    .filter(|r| r.threads == t)
+                    .map(|r| (r.particles as f64, f(r)))
+                    .collect(),
+                markers: false,
+            })
+            .collect()
+    };
+    let per_particle_step = |r: &Row, d: std::time::Duration| {
+        d.as_secs_f64() / r.steps as f64 / r.particles as f64 * 1e9
+    };
+    let ppe = |r: &Row| {
+        let t = &r.timers;
+        per_particle_step(
+            r,
+            t.get(Stage::PpeAssembly) + t.get(Stage::PpeSetup) + t.get(Stage::PpeSolve),
+        )
+    };
+    let charts = [
+        (
+            "bench_iterations",
+            Chart {
+                title: "PPE iterations per step".into(),
+                x_label: "particles".into(),
+                y_label: "CG iterations".into(),
+                series: by_threads(&|r| r.mean_iterations, "iterations"),
+                log_x: true,
+                log_y: false,
+            },
+        ),
+        (
+            "bench_time_per_particle",
+            Chart {
+                title: "time per particle-step".into(),
+                x_label: "particles".into(),
+                y_label: "ns per particle-step".into(),
+                series: [
+                    by_threads(
+                        &|r| per_particle_step(r, std::time::Duration::from_secs_f64(r.seconds)),
+                        "whole step",
+                    ),
+                    by_threads(&ppe, "PPE"),
+                ]
+                .concat(),
+                log_x: true,
+                log_y: true,
+            },
+        ),
+    ];
+    for (name, c) in charts {
+        let p = dir.join(format!("{name}.svg"));
+        let svg = line_chart_svg(&c).map_err(|e| io_error(&p, e))?;
+        mps::io::write_atomic(&p, svg.as_bytes())?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
 }

@@ -1,13 +1,16 @@
 //! `mps compare`: run one case once per scheme, each into its own folder, concurrently,
 //! and write a comparison table.
 
+use crate::failure::{bad, io_error, CmdResult, Failure};
+use crate::render::read_frame;
 use crate::{load_case, CaseArgs};
-use anyhow::{Context, Result};
 use clap::Args;
-use mps::compare::{csv_table, join_metrics, markdown_table, SchemeRun};
-use mps::output::write_atomic;
+use mps::analysis::compare::{join_metrics, markdown_table, CompareRow, SchemeRun};
+use mps::io::series::Series;
+use mps::io::write_atomic;
 use mps::run::{run, Silent};
 use mps::Simulation;
+use mps_render::Field;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -31,32 +34,32 @@ pub struct CompareArgs {
     figure_times: Vec<f64>,
     /// Colouring field of the figure: pressure, velocity, phase or density.
     #[arg(long, default_value = "pressure")]
-    figure_field: String,
+    figure_field: Field,
     /// Draw velocity vectors in the figure.
     #[arg(long)]
     vectors: bool,
 }
 
-pub fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
+pub fn cmd_compare(a: CompareArgs) -> CmdResult {
     // Validate every scheme's case up front, so bad input fails before any run.
     let mut cases = Vec::new();
-    for scheme in &a.schemes {
+    for (k, scheme) in a.schemes.iter().enumerate() {
+        if a.schemes[..k].contains(scheme) {
+            return Err(bad(format!("--schemes: {scheme} is listed twice")));
+        }
         let mut args = a.case.clone();
         args.set.push(format!("scheme.name={scheme}"));
-        match load_case(&args) {
-            Ok(c) => cases.push((scheme.clone(), c)),
-            Err(e) => {
-                eprintln!("error: {e}");
-                return Ok(ExitCode::from(1));
-            }
-        }
+        cases.push((scheme.clone(), load_case(&args)?));
+    }
+    if cases.is_empty() {
+        return Err(bad("--schemes: name at least one scheme"));
     }
     let name = cases[0].1 .0.name.clone();
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(format!("{name}_compare")));
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    std::fs::create_dir_all(&out).map_err(|e| io_error(&out, e))?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     // Every run gets a full-size pool: when some schemes break down early the others keep
     // all cores (results do not depend on the thread count).
@@ -68,19 +71,19 @@ pub fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
         per_run,
         out.display()
     );
-    let results: Vec<Result<SchemeRun>> = std::thread::scope(|scope| {
+    let results: Vec<Result<SchemeRun, Failure>> = std::thread::scope(|scope| {
         let handles: Vec<_> = cases
             .iter()
             .map(|(scheme, (case, label))| {
                 let dir = out.join(scheme);
-                scope.spawn(move || -> Result<SchemeRun> {
+                scope.spawn(move || -> Result<SchemeRun, Failure> {
                     let pool = rayon::ThreadPoolBuilder::new()
                         .num_threads(per_run)
-                        .build()?;
+                        .build()
+                        .map_err(|e| bad(format!("thread pool: {e}")))?;
                     pool.install(|| {
                         let mut sim = Simulation::<2>::new(case.clone(), label)?;
-                        let summary = run(&mut sim, &dir, &mut Silent)
-                            .with_context(|| format!("writing {}", dir.display()))?;
+                        let summary = run(&mut sim, &dir, &mut Silent)?;
                         eprintln!(
                             "  {scheme}: {}",
                             summary.breakdown.clone().unwrap_or_else(|| format!(
@@ -101,10 +104,14 @@ pub fn cmd_compare(a: CompareArgs) -> Result<ExitCode> {
             .map(|h| h.join().expect("comparison thread panicked"))
             .collect()
     });
-    let runs: Vec<SchemeRun> = results.into_iter().collect::<Result<_>>()?;
+    let runs: Vec<SchemeRun> = results.into_iter().collect::<Result<_, _>>()?;
     let md = markdown_table(&runs);
     write_atomic(&out.join("compare.md"), md.as_bytes())?;
-    write_atomic(&out.join("compare.csv"), csv_table(&runs).as_bytes())?;
+    let mut csv = Series::create(&out.join("compare.csv"), None)?;
+    for r in &runs {
+        csv.push(&CompareRow::from(r))?;
+    }
+    csv.flush()?;
     let parts: Vec<(String, String)> = runs
         .iter()
         .map(|r| {
@@ -135,14 +142,9 @@ fn comparison_figure(
     out: &std::path::Path,
     runs: &[SchemeRun],
     end: f64,
-) -> Result<Option<PathBuf>> {
-    use mps_render::{compose, read_pvd, render_frame, Field, Frame, RenderOptions};
-    let Some(field) = Field::parse(&a.figure_field) else {
-        anyhow::bail!(
-            "--figure-field {}: one of pressure, velocity, phase, density",
-            a.figure_field
-        );
-    };
+) -> Result<Option<PathBuf>, Failure> {
+    use mps_render::{compose, read_pvd, render_frame, Frame, RenderOptions};
+    let field = a.figure_field;
     let times: Vec<f64> = if a.figure_times.is_empty() {
         (1..=4).map(|k| end * k as f64 / 4.0).collect()
     } else {
@@ -170,8 +172,7 @@ fn comparison_figure(
                     .min_by(|x, y| (x.0 - t).abs().total_cmp(&(y.0 - t).abs()))
             };
             let Some((_, file)) = entry else { continue };
-            let bytes = std::fs::read(dir.join(file))?;
-            let frame = Frame::from_vtu(&bytes).map_err(|e| anyhow::anyhow!("{file}: {e}"))?;
+            let frame: Frame = read_frame(&dir.join(file))?;
             grid.push((r.scheme.clone(), t, frame, broken));
         }
     }

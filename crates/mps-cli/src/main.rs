@@ -1,10 +1,11 @@
 //! `mps`: command-line program over the MPS solver library.
 
-use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
+use failure::{bad, io_error, CmdResult, Failure};
 use indicatif::{ProgressBar, ProgressStyle};
+use mps::analysis::RunSummary;
 use mps::examples::EXAMPLES;
-use mps::run::{run, Observer, Progress, RunSummary};
+use mps::run::{run, Observer, Progress};
 use mps::{Case, Simulation};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -13,9 +14,21 @@ use std::time::Instant;
 
 mod bench;
 mod compare;
+mod failure;
 mod plot;
 mod render;
 mod report;
+
+/// Most threads a run may ask for.
+const MAX_THREADS: usize = 1024;
+
+/// Parses a thread count: 1 to 1024.
+fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
+        _ => Err(format!("{s}: a thread count from 1 to {MAX_THREADS}")),
+    }
+}
 
 /// Moving Particle Semi-implicit (MPS) solver for incompressible free-surface and multiphase flow.
 #[derive(Parser)]
@@ -66,8 +79,8 @@ struct RunArgs {
     /// No progress output.
     #[arg(long, short)]
     quiet: bool,
-    /// Number of threads (default: all cores).
-    #[arg(long)]
+    /// Number of threads, 1 to 1024 (default: all cores).
+    #[arg(long, value_parser = parse_threads)]
     threads: Option<usize>,
     /// Continue from a checkpoint written by an earlier run of the same case (e.g. with a
     /// later `time.end`); output goes to `--out` or `restart_t<time>` beside the checkpoint.
@@ -85,35 +98,31 @@ pub fn load_case(a: &CaseArgs) -> Result<(Case, String), mps::CaseError> {
         .iter()
         .map(|s| match s.split_once('=') {
             Some((k, v)) => Ok((k.trim().to_string(), v.trim().to_string())),
-            None => Err(mps::CaseError {
-                file: "--set".into(),
-                field: s.clone(),
-                value: String::new(),
-                message: "expected KEY=VALUE".into(),
-            }),
+            None => Err(mps::CaseError::new(
+                "--set",
+                s.clone(),
+                "",
+                "expected KEY=VALUE",
+            )),
         })
         .collect::<Result<_, _>>()?;
     match (&a.case, &a.example) {
         (Some(p), _) => Ok((Case::from_file(p, &overrides)?, p.display().to_string())),
         (None, Some(name)) => {
-            let text = mps::examples::example(name).ok_or_else(|| mps::CaseError {
-                file: "--example".into(),
-                field: String::new(),
-                value: name.clone(),
-                message: format!(
-                    "no such example; one of {}",
-                    EXAMPLES.iter().map(|e| e.0).collect::<Vec<_>>().join(", ")
-                ),
+            let text = mps::examples::example(name).ok_or_else(|| {
+                let names: Vec<&str> = EXAMPLES.iter().map(|e| e.0).collect();
+                let msg = format!("no such example; one of {}", names.join(", "));
+                mps::CaseError::new("--example", "", name.clone(), msg)
             })?;
             let label = format!("example:{name}");
             Ok((Case::from_str_named(text, &label, &overrides)?, label))
         }
-        (None, None) => Err(mps::CaseError {
-            file: "mps run".into(),
-            field: String::new(),
-            value: String::new(),
-            message: "give a case file or --example NAME (see `mps list`)".into(),
-        }),
+        (None, None) => Err(mps::CaseError::new(
+            "mps",
+            "",
+            "",
+            "give a case file or --example NAME (see `mps list`)",
+        )),
     }
 }
 
@@ -221,55 +230,79 @@ fn print_timing(s: &RunSummary) {
     }
 }
 
-fn cmd_run(a: RunArgs) -> Result<ExitCode> {
-    if let Some(t) = a.threads {
+/// Sets the number of threads of the global pool.
+fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+    if let Some(t) = threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build_global()
-            .context("setting the thread count")?;
+            .map_err(|e| bad(format!("--threads {t}: {e}")))?;
     }
-    let (case, label) = match load_case(&a.case) {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return Ok(ExitCode::from(1));
-        }
+    Ok(())
+}
+
+/// Restores `sim` from the checkpoint `ck`; returns the output folder of the restarted run
+/// when none was given.
+fn restart(sim: &mut Simulation<2>, ck: &Path, quiet: bool) -> Result<PathBuf, Failure> {
+    let bytes = std::fs::read(ck)
+        .map_err(|e| bad(format!("{}: cannot read checkpoint: {e}", ck.display())))?;
+    mps::io::checkpoint::restore(sim, &bytes, ck)?;
+    if !quiet {
+        eprintln!(
+            "restarting from {} at t = {:.6} s (step {})",
+            ck.display(),
+            sim.time,
+            sim.step_count
+        );
+    }
+    let dir = ck.parent().unwrap_or(Path::new("."));
+    Ok(dir.join(format!("restart_t{:.4}", sim.time)))
+}
+
+/// Keeps the case beside its output (the report shows it; a rerun starts from it).
+fn save_case(a: &CaseArgs, out: &Path) -> Result<(), Failure> {
+    let source = match (&a.case, &a.example) {
+        (Some(p), _) => std::fs::read_to_string(p).unwrap_or_default(),
+        (None, Some(n)) => mps::examples::example(n).unwrap_or_default().to_string(),
+        _ => String::new(),
     };
+    let sets: String = a.set.iter().map(|s| format!("# --set {s}\n")).collect();
+    std::fs::create_dir_all(out).map_err(|e| io_error(out, e))?;
+    mps::io::write_atomic(&out.join("case.toml"), format!("{sets}{source}").as_bytes())?;
+    Ok(())
+}
+
+fn print_results(s: &RunSummary, out: &Path) {
+    print_timing(s);
+    for v in &s.validation {
+        eprintln!("validation: {} = {:.4} ({})", v.name, v.value, v.note);
+        if v.reference != 0.0 {
+            eprintln!(
+                "            reference {:.4}, relative error {:+.2} %",
+                v.reference,
+                100.0 * v.error
+            );
+        }
+    }
+    eprintln!(
+        "output: {} (open particles.pvd in ParaView; metrics.csv, steps.csv, summary.toml)",
+        out.display()
+    );
+}
+
+fn cmd_run(a: RunArgs) -> CmdResult {
+    set_threads(a.threads)?;
+    let (case, label) = load_case(&a.case)?;
     let mut out = a
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&case.name));
     let end = case.time.end;
-    let mut sim = match Simulation::<2>::new(case, &label) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return Ok(ExitCode::from(1));
-        }
-    };
+    let mut sim = Simulation::<2>::new(case, &label)?;
     if let Some(ck) = &a.restart {
-        let bytes = match std::fs::read(ck) {
-            Ok(b) => b,
-            Err(e) => {
-                eprintln!("error: {}: cannot read checkpoint: {e}", ck.display());
-                return Ok(ExitCode::from(1));
-            }
-        };
-        if let Err(e) = mps::checkpoint::restore(&mut sim, &bytes) {
-            eprintln!("error: {}: {e}", ck.display());
-            return Ok(ExitCode::from(1));
-        }
+        let dir = restart(&mut sim, ck, a.quiet)?;
         if a.out.is_none() {
-            let dir = ck.parent().unwrap_or(Path::new("."));
-            out = dir.join(format!("restart_t{:.4}", sim.time));
-        }
-        if !a.quiet {
-            eprintln!(
-                "restarting from {} at t = {:.6} s (step {})",
-                ck.display(),
-                sim.time,
-                sim.step_count
-            );
+            out = dir;
         }
     }
     if !a.quiet {
@@ -286,43 +319,15 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
             out.display()
         );
     }
-    // Keep the case beside its output (the report shows it; a rerun starts from it).
-    let source = match (&a.case.case, &a.case.example) {
-        (Some(p), _) => std::fs::read_to_string(p).unwrap_or_default(),
-        (None, Some(n)) => mps::examples::example(n).unwrap_or_default().to_string(),
-        _ => String::new(),
-    };
-    let sets: String = a
-        .case
-        .set
-        .iter()
-        .map(|s| format!("# --set {s}\n"))
-        .collect();
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    mps::output::write_atomic(&out.join("case.toml"), format!("{sets}{source}").as_bytes())?;
+    save_case(&a.case, &out)?;
     let mut rep = Reporter::new(a.quiet, end);
     rep.render_every = a.render_every;
-    let summary = run(&mut sim, &out, &mut rep)
-        .with_context(|| format!("writing output to {}", out.display()))?;
+    let summary = run(&mut sim, &out, &mut rep)?;
     if let Some(b) = &rep.bar {
         b.finish_and_clear();
     }
     if !a.quiet {
-        print_timing(&summary);
-        for v in &summary.validation {
-            eprintln!("validation: {} = {:.4} ({})", v.name, v.value, v.note);
-            if v.reference != 0.0 {
-                eprintln!(
-                    "            reference {:.4}, relative error {:+.2} %",
-                    v.reference,
-                    100.0 * v.error
-                );
-            }
-        }
-        eprintln!(
-            "output: {} (open particles.pvd in ParaView; metrics.csv, steps.csv, summary.toml)",
-            out.display()
-        );
+        print_results(&summary, &out);
     }
     if let Some(b) = &summary.breakdown {
         eprintln!(
@@ -335,7 +340,15 @@ fn cmd_run(a: RunArgs) -> Result<ExitCode> {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            // Help and version go to stdout with exit 0; a bad argument is bad input (1).
+            let code = if e.use_stderr() { 1 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
     let r = match cli.command {
         Command::Run(a) => cmd_run(a),
         Command::List => {
@@ -353,8 +366,8 @@ fn main() -> ExitCode {
     match r {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(3)
+            eprintln!("error: {e}");
+            e.exit_code()
         }
     }
 }

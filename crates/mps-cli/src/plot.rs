@@ -1,9 +1,11 @@
-//! `mps plot RUN_DIR`: PNG charts of every recorded metric over time and of the validation
+//! `mps plot RUN_DIR`: SVG charts of every recorded metric over time and of the validation
 //! curves against their references.
 
-use anyhow::{Context, Result};
+use crate::failure::{bad, io_error, CmdResult, Failure};
 use clap::Args;
-use mps_render::plot::{line_chart, Series};
+use mps::analysis::RunSummary;
+use mps::io::series::{read_table, Table};
+use mps_render::plot::{line_chart_svg, Chart, Series};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -14,144 +16,121 @@ pub struct PlotArgs {
     run_dir: PathBuf,
 }
 
-/// Columns of a CSV file with a header row: (names, rows of numbers).
-pub fn read_csv(path: &Path) -> Option<(Vec<String>, Vec<Vec<f64>>)> {
-    let text = std::fs::read_to_string(path).ok()?;
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()?
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .collect();
-    let rows = lines
-        .map(|l| {
-            l.split(',')
-                .map(|v| v.trim().parse().unwrap_or(f64::NAN))
-                .collect()
-        })
-        .collect();
-    Some((header, rows))
-}
-
-fn column(rows: &[Vec<f64>], x: usize, y: usize) -> Vec<(f64, f64)> {
-    rows.iter()
-        .filter(|r| r.len() > x.max(y))
-        .map(|r| (r[x], r[y]))
+/// `(x, y)` points of columns `x`, `y` of a table.
+pub fn points(cols: &[Vec<f64>], x: usize, y: usize) -> Vec<(f64, f64)> {
+    cols[x]
+        .iter()
+        .copied()
+        .zip(cols[y].iter().copied())
         .collect()
 }
 
-/// Writes every chart of a run into `RUN_DIR/figures/`; returns the files written.
-pub fn plot_run(dir: &Path) -> Result<Vec<PathBuf>> {
-    let out = dir.join("figures");
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let mut written = Vec::new();
-    let mut save = |name: &str, c: mps_render::Canvas| -> Result<()> {
-        let p = out.join(format!("{name}.png"));
-        c.write_png(&p)
-            .with_context(|| format!("writing {}", p.display()))?;
-        written.push(p);
-        Ok(())
+/// A chart on a linear time axis.
+pub fn time_chart(title: &str, y_label: &str, series: Vec<Series>) -> Chart {
+    Chart {
+        title: title.to_string(),
+        x_label: "time (s)".into(),
+        y_label: y_label.to_string(),
+        series,
+        ..Default::default()
+    }
+}
+
+/// A line series.
+pub fn line(name: &str, points: Vec<(f64, f64)>) -> Series {
+    Series {
+        name: name.to_string(),
+        points,
+        markers: false,
+    }
+}
+
+/// The charts of a run folder: every metric (conserved quantities against their initial
+/// value), the dam-break front against Martin & Moyce, each probe (against the hydrostatic
+/// reference when the run has one). A file that is there but unreadable is bad input.
+pub fn run_charts(dir: &Path) -> Result<Vec<(String, Chart)>, Failure> {
+    let mut charts = Vec::new();
+    let table = |name: &str| -> Result<Option<Table>, Failure> {
+        let p = dir.join(name);
+        if !p.exists() {
+            return Ok(None);
+        }
+        read_table(&p).map(Some).map_err(Failure::from)
     };
-    if let Some((h, rows)) = read_csv(&dir.join("metrics.csv")) {
-        for (k, name) in h.iter().enumerate().skip(2) {
-            let pts = column(&rows, 0, k);
-            let mut series = vec![Series {
-                name: name.clone(),
-                points: pts.clone(),
-                markers: false,
-            }];
-            // Conserved quantities against their initial (exact) value.
+    if let Some(Table { header, columns }) = table("metrics.csv")? {
+        for (k, name) in header.iter().enumerate().skip(2) {
+            let pts = points(&columns, 0, k);
+            let mut series = vec![line(name, pts.clone())];
             if name == "kinetic_energy" || name == "angular_momentum" {
                 if let (Some(first), Some(last)) = (pts.first(), pts.last()) {
-                    series.push(Series {
-                        name: "initial (exact)".into(),
-                        points: vec![(first.0, first.1), (last.0, first.1)],
-                        markers: false,
-                    });
+                    series.push(line("initial (exact)", vec![*first, (last.0, first.1)]));
                 }
             }
-            save(
-                &format!("metric_{name}"),
-                line_chart(name, "time (s)", name, &series, 800, 450),
-            )?;
+            charts.push((format!("metric_{name}"), time_chart(name, name, series)));
         }
     }
-    if let Some((_, rows)) = read_csv(&dir.join("dam_break_front.csv")) {
-        let series = [
-            Series {
-                name: "simulation".into(),
-                points: column(&rows, 0, 2),
-                markers: false,
-            },
+    if let Some(Table { columns: cols, .. }) = table("dam_break_front.csv")? {
+        let series = vec![
+            line("simulation", points(&cols, 0, 2)),
             Series {
                 name: "Martin & Moyce 1952".into(),
-                points: column(&rows, 0, 1),
+                points: points(&cols, 0, 1),
                 markers: true,
             },
         ];
-        save(
-            "validation_dam_break_front",
-            line_chart(
-                "dam-break front",
-                "T = t sqrt(2g/L)",
-                "Z = z/L",
-                &series,
-                800,
-                450,
-            ),
-        )?;
+        let chart = Chart {
+            title: "dam-break front".into(),
+            x_label: "T = t sqrt(2g/L)".into(),
+            y_label: "Z = z/L".into(),
+            series,
+            ..Default::default()
+        };
+        charts.push(("validation_dam_break_front".into(), chart));
     }
-    if let Some((h, rows)) = read_csv(&dir.join("probes.csv")) {
-        let summary: Option<toml::Table> = std::fs::read_to_string(dir.join("summary.toml"))
-            .ok()
-            .and_then(|t| t.parse().ok());
-        let reference = summary.as_ref().and_then(|s| {
-            s.get("validation")?
-                .as_array()?
+    if let Some(Table {
+        header: h,
+        columns: cols,
+    }) = table("probes.csv")?
+    {
+        let reference = RunSummary::read(dir).ok().and_then(|s| {
+            s.validation
                 .iter()
-                .find(|v| {
-                    v.get("name").and_then(|n| n.as_str()) == Some("hydrostatic_bottom_pressure")
-                })?
-                .get("reference")?
-                .as_float()
+                .find(|v| v.name == "hydrostatic_bottom_pressure")
+                .map(|v| v.reference)
         });
         for (k, name) in h.iter().enumerate().skip(1) {
-            let pts = column(&rows, 0, k);
-            let mut series = vec![Series {
-                name: format!("probe {name}"),
-                points: pts.clone(),
-                markers: false,
-            }];
+            let pts = points(&cols, 0, k);
+            let mut series = vec![line(&format!("probe {name}"), pts.clone())];
             if let (Some(r), Some(a), Some(b)) = (reference, pts.first(), pts.last()) {
-                series.push(Series {
-                    name: "reference".into(),
-                    points: vec![(a.0, r), (b.0, r)],
-                    markers: false,
-                });
+                series.push(line("reference", vec![(a.0, r), (b.0, r)]));
             }
-            save(
-                &format!("probe_{name}"),
-                line_chart(
-                    &format!("pressure at {name}"),
-                    "time (s)",
-                    "Pa",
-                    &series,
-                    800,
-                    450,
-                ),
-            )?;
+            let title = format!("pressure at {name}");
+            charts.push((format!("probe_{name}"), time_chart(&title, "Pa", series)));
         }
+    }
+    Ok(charts)
+}
+
+/// Writes every chart of a run into `RUN_DIR/figures/` as SVG; returns the files written.
+pub fn plot_run(dir: &Path) -> Result<Vec<PathBuf>, Failure> {
+    let out = dir.join("figures");
+    std::fs::create_dir_all(&out).map_err(|e| io_error(&out, e))?;
+    let mut written = Vec::new();
+    for (name, chart) in run_charts(dir)? {
+        let p = out.join(format!("{name}.svg"));
+        let svg = line_chart_svg(&chart).map_err(|e| io_error(&p, e))?;
+        mps::io::write_atomic(&p, svg.as_bytes())?;
+        written.push(p);
     }
     Ok(written)
 }
 
-pub fn cmd_plot(a: PlotArgs) -> Result<ExitCode> {
+pub fn cmd_plot(a: PlotArgs) -> CmdResult {
     if !a.run_dir.join("metrics.csv").exists() {
-        eprintln!(
-            "error: {}: no metrics.csv; is this a run folder?",
+        return Err(bad(format!(
+            "{}: no metrics.csv; is this a run folder?",
             a.run_dir.display()
-        );
-        return Ok(ExitCode::from(1));
+        )));
     }
     for p in plot_run(&a.run_dir)? {
         println!("{}", p.display());

@@ -1,12 +1,16 @@
 //! `mps report DIR`: a self-contained HTML page of a run (parameters, timing, validation with
 //! pass/fail, charts, snapshots) or of a comparison folder (table, figure, metric curves).
 
-use crate::plot::{plot_run, read_csv};
-use anyhow::{Context, Result};
+use crate::failure::{bad, io_error, CmdResult, Failure};
+use crate::plot::{line, run_charts, time_chart};
+use crate::render::{read_frame, snapshots};
 use clap::Args;
-use mps_render::plot::{line_chart, Series};
+use mps::analysis::compare::CompareRow;
+use mps::analysis::RunSummary;
+use mps::io::series::{read_rows, read_table, Table};
+use mps_render::plot::line_chart_svg;
 use mps_render::report::{html, Block};
-use mps_render::{read_pvd, render_frame, Field, Frame, RenderOptions};
+use mps_render::{render_frame, Field, RenderOptions};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -17,281 +21,291 @@ pub struct ReportArgs {
     dir: PathBuf,
 }
 
-fn value_text(v: &toml::Value) -> String {
-    match v {
-        toml::Value::Float(f) => format!("{f:.6}"),
-        toml::Value::String(s) => s.clone(),
-        other => other.to_string(),
-    }
+fn png(path: &Path) -> Result<Vec<u8>, Failure> {
+    std::fs::read(path).map_err(|e| io_error(path, e))
 }
 
-fn png(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).with_context(|| format!("reading {}", path.display()))
+fn opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |x| format!("{x:.6}"))
 }
 
-/// The report blocks of one run folder.
-pub fn run_blocks(dir: &Path) -> Result<(String, Vec<Block>)> {
-    let text = std::fs::read_to_string(dir.join("summary.toml"))
-        .with_context(|| format!("{}: no summary.toml; is this a run folder?", dir.display()))?;
-    let s: toml::Table = text.parse().context("parsing summary.toml")?;
-    let mut blocks = vec![Block::Heading("Run".into())];
-    let keys = [
-        "case",
-        "scheme",
-        "fluid_particles",
-        "wall_particles",
-        "dummy_particles",
-        "spacing",
-        "steps",
-        "time",
-        "end_time",
-        "wall_seconds",
-        "particle_steps_per_second",
-        "mean_ppe_iterations",
-        "threads",
-        "breakdown",
+/// The parameters table of a run.
+fn run_table(s: &RunSummary) -> Block {
+    let rows: Vec<[String; 2]> = vec![
+        ["case".into(), s.case.clone()],
+        ["scheme".into(), s.scheme.clone()],
+        ["fluid particles".into(), s.fluid_particles.to_string()],
+        ["wall particles".into(), s.wall_particles.to_string()],
+        ["dummy particles".into(), s.dummy_particles.to_string()],
+        ["spacing (m)".into(), s.spacing.to_string()],
+        ["steps".into(), s.steps.to_string()],
+        ["time reached (s)".into(), format!("{:.6}", s.time)],
+        ["end time (s)".into(), format!("{:.6}", s.end_time)],
+        ["wall time (s)".into(), format!("{:.3}", s.wall_seconds)],
+        [
+            "particle-steps/s".into(),
+            format!("{:.0}", s.particle_steps_per_second),
+        ],
+        [
+            "mean PPE iterations".into(),
+            format!("{:.2}", s.mean_ppe_iterations),
+        ],
+        ["solver fall-backs".into(), s.solver_fallbacks.to_string()],
+        ["threads".into(), s.threads.to_string()],
+        [
+            "breakdown".into(),
+            s.breakdown.clone().unwrap_or_else(|| "none".into()),
+        ],
     ];
-    let rows = keys
+    Block::Table(
+        vec!["quantity".into(), "value".into()],
+        rows.into_iter().map(Vec::from).collect(),
+    )
+}
+
+/// Timing, validation and group tables of a run.
+fn result_tables(s: &RunSummary) -> Vec<Block> {
+    let mut blocks = Vec::new();
+    let total: f64 = s.stages.iter().map(|x| x.1).sum();
+    let rows = s
+        .stages
         .iter()
-        .map(|k| {
-            vec![
-                k.to_string(),
-                s.get(*k).map(value_text).unwrap_or_else(|| "none".into()),
-            ]
+        .map(|(n, t)| {
+            let share = format!("{:.1}", 100.0 * t / total.max(1e-12));
+            vec![n.clone(), format!("{t:.3}"), share]
         })
         .collect();
-    blocks.push(Block::Table(vec!["quantity".into(), "value".into()], rows));
-    if let Some(stages) = s.get("stages").and_then(|v| v.as_array()) {
-        let total: f64 = stages.iter().filter_map(|p| p.get(1)?.as_float()).sum();
-        let rows = stages
+    blocks.push(Block::Heading("Time per stage of the step".into()));
+    let head = ["stage", "seconds", "%"].map(String::from).to_vec();
+    blocks.push(Block::Table(head, rows));
+    if !s.validation.is_empty() {
+        let rows = s
+            .validation
             .iter()
-            .filter_map(|p| {
-                let (n, t) = (p.get(0)?.as_str()?, p.get(1)?.as_float()?);
-                Some(vec![
-                    n.to_string(),
-                    format!("{t:.3}"),
-                    format!("{:.1}", 100.0 * t / total.max(1e-12)),
-                ])
-            })
-            .collect();
-        blocks.push(Block::Heading("Time per stage of the step".into()));
-        blocks.push(Block::Table(
-            vec!["stage".into(), "seconds".into(), "%".into()],
-            rows,
-        ));
-    }
-    if let Some(v) = s.get("validation").and_then(|v| v.as_array()) {
-        let rows = v
-            .iter()
-            .map(|r| {
-                let f = |k: &str| r.get(k).map(value_text).unwrap_or_default();
-                let pass = r.get("passed").and_then(|p| p.as_bool()).unwrap_or(false);
+            .map(|v| {
+                let pass = if v.passed { "PASS" } else { "FAIL" };
                 vec![
-                    f("name"),
-                    f("value"),
-                    f("reference"),
-                    f("error"),
-                    f("tolerance"),
-                    if pass { "PASS" } else { "FAIL" }.into(),
-                    f("note"),
+                    v.name.clone(),
+                    format!("{:.6}", v.value),
+                    format!("{:.6}", v.reference),
+                    format!("{:.6}", v.error),
+                    format!("{:.6}", v.tolerance),
+                    pass.into(),
+                    v.note.clone(),
                 ]
             })
             .collect();
         blocks.push(Block::Heading("Validation".into()));
-        blocks.push(Block::Table(
-            [
-                "check",
-                "value",
-                "reference",
-                "error",
-                "tolerance",
-                "result",
-                "how",
-            ]
-            .map(String::from)
-            .to_vec(),
-            rows,
-        ));
+        let head = [
+            "check",
+            "value",
+            "reference",
+            "error",
+            "tolerance",
+            "result",
+            "how",
+        ];
+        blocks.push(Block::Table(head.map(String::from).to_vec(), rows));
     }
-    if let Some(g) = s
-        .get("groups")
-        .and_then(|v| v.as_array())
-        .filter(|g| !g.is_empty())
-    {
-        let rows = g
+    if !s.groups.is_empty() {
+        let rows = s
+            .groups
             .iter()
-            .map(|r| {
-                let f = |k: &str| r.get(k).map(value_text).unwrap_or_else(|| "-".into());
+            .map(|g| {
                 vec![
-                    f("name"),
-                    f("particles"),
-                    f("arrival_time"),
-                    f("stray_end"),
-                    f("centroid"),
+                    g.name.clone(),
+                    g.particles.to_string(),
+                    opt(g.arrival_time),
+                    g.stray_end.to_string(),
+                    format!("{:?}", g.centroid),
                 ]
             })
             .collect();
         blocks.push(Block::Heading("Fluid groups".into()));
-        blocks.push(Block::Table(
-            [
-                "group",
-                "particles",
-                "arrival (s)",
-                "stray at end",
-                "centroid start, end (m)",
-            ]
-            .map(String::from)
-            .to_vec(),
-            rows,
-        ));
+        let head = [
+            "group",
+            "particles",
+            "arrival (s)",
+            "stray at end",
+            "centroid start, end (m)",
+        ];
+        blocks.push(Block::Table(head.map(String::from).to_vec(), rows));
     }
-    blocks.push(Block::Heading("Charts".into()));
-    for p in plot_run(dir)? {
-        let name = p
-            .file_stem()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .to_string();
-        blocks.push(Block::Image(name, png(&p)?));
+    blocks
+}
+
+/// Snapshots of the first, middle and last output of a run.
+fn snapshot_blocks(dir: &Path) -> Result<Vec<Block>, Failure> {
+    let Ok(e) = snapshots(dir) else {
+        return Ok(Vec::new());
+    };
+    let mut blocks = vec![Block::Heading("Snapshots".into())];
+    let mut picks = vec![0, e.len() / 2, e.len() - 1];
+    picks.dedup();
+    for k in picks {
+        let frame = read_frame(&dir.join(&e[k].1))?;
+        let c = render_frame(
+            &frame,
+            &RenderOptions {
+                field: Field::Pressure,
+                vectors: true,
+                breakdown: e[k].1.starts_with("breakdown"),
+                ..Default::default()
+            },
+        );
+        let caption = format!("pressure at t = {} s", frame.time);
+        blocks.push(Block::Image(caption, c.png_bytes()));
     }
-    if let Ok(pvd) = std::fs::read_to_string(dir.join("particles.pvd")) {
-        let e = read_pvd(&pvd);
-        if !e.is_empty() {
-            blocks.push(Block::Heading("Snapshots".into()));
-            let picks = [0, e.len() / 2, e.len() - 1];
-            let mut last = usize::MAX;
-            for k in picks {
-                if k == last {
-                    continue;
-                }
-                last = k;
-                let bytes = std::fs::read(dir.join(&e[k].1))?;
-                let frame =
-                    Frame::from_vtu(&bytes).map_err(|x| anyhow::anyhow!("{}: {x}", e[k].1))?;
-                let c = render_frame(
-                    &frame,
-                    &RenderOptions {
-                        field: Field::Pressure,
-                        vectors: true,
-                        breakdown: e[k].1.starts_with("breakdown"),
-                        ..Default::default()
-                    },
-                );
-                blocks.push(Block::Image(
-                    format!("pressure at t = {:.3} s", frame.time),
-                    c.png_bytes(),
-                ));
-            }
-        }
+    Ok(blocks)
+}
+
+/// The charts of a run, inlined as SVG.
+fn chart_blocks(dir: &Path) -> Result<Vec<Block>, Failure> {
+    let mut blocks = vec![Block::Heading("Charts".into())];
+    for (name, chart) in run_charts(dir)? {
+        let svg = line_chart_svg(&chart).map_err(bad)?;
+        blocks.push(Block::Svg(name, svg));
     }
+    Ok(blocks)
+}
+
+/// The report blocks of one run folder.
+pub fn run_blocks(dir: &Path) -> Result<(String, Vec<Block>), Failure> {
+    let s = RunSummary::read(dir)?;
+    let mut blocks = vec![Block::Heading("Run".into()), run_table(&s)];
+    blocks.extend(result_tables(&s));
+    blocks.extend(chart_blocks(dir)?);
+    blocks.extend(snapshot_blocks(dir)?);
     if let Ok(case) = std::fs::read_to_string(dir.join("case.toml")) {
         blocks.push(Block::Heading("Case file".into()));
         blocks.push(Block::Pre(case));
     }
-    let title = format!(
-        "MPS run: {}",
-        s.get("case").map(value_text).unwrap_or_default()
-    );
-    Ok((title, blocks))
+    Ok((format!("MPS run: {}", s.case), blocks))
+}
+
+/// The comparison table from `compare.csv`, read back through its row type.
+fn compare_table(rows: &[CompareRow]) -> Block {
+    let ratio = |a: f64, b: f64| {
+        if a != 0.0 {
+            format!("{:.4}", b / a)
+        } else {
+            "-".into()
+        }
+    };
+    let body = rows
+        .iter()
+        .map(|r| {
+            let breakdown = match r.breakdown_time {
+                Some(t) => format!(
+                    "t = {t:.3} s: {}",
+                    r.breakdown.rsplit(": ").next().unwrap_or("")
+                ),
+                None => "none".into(),
+            };
+            vec![
+                r.scheme.clone(),
+                breakdown,
+                format!("{:.3}", r.time_reached),
+                ratio(r.ke_start, r.ke_end),
+                ratio(r.angular_momentum_start, r.angular_momentum_end),
+                format!("{:.3}", r.min_pair_distance_l0),
+                format!("{:.4}", r.nd_spread_end),
+                format!("{:.4}", r.rms_speed_end),
+            ]
+        })
+        .collect();
+    let head = [
+        "scheme",
+        "breakdown",
+        "t reached (s)",
+        "KE end/start",
+        "L end/start",
+        "min pair (l0)",
+        "n/n0 spread",
+        "RMS speed (m/s)",
+    ];
+    Block::Table(head.map(String::from).to_vec(), body)
+}
+
+/// Each compared metric over time, one curve per scheme.
+fn compare_charts(dir: &Path, schemes: &[String]) -> Result<Vec<Block>, Failure> {
+    let mut blocks = Vec::new();
+    let per_scheme: Vec<(String, Table)> = schemes
+        .iter()
+        .filter_map(|s| {
+            Some((
+                s.clone(),
+                read_table(&dir.join(s).join("metrics.csv")).ok()?,
+            ))
+        })
+        .collect();
+    for metric in [
+        "kinetic_energy",
+        "angular_momentum",
+        "min_pair_distance_l0",
+        "rms_speed",
+        "nd_spread",
+    ] {
+        let series = per_scheme
+            .iter()
+            .filter_map(|(s, t)| {
+                let k = t.header.iter().position(|x| x == metric)?;
+                Some(line(s, crate::plot::points(&t.columns, 0, k)))
+            })
+            .collect();
+        let svg = line_chart_svg(&time_chart(metric, metric, series)).map_err(bad)?;
+        blocks.push(Block::Svg(format!("{metric} per scheme"), svg));
+    }
+    Ok(blocks)
 }
 
 /// The report blocks of a comparison folder.
-fn compare_blocks(dir: &Path) -> Result<(String, Vec<Block>)> {
-    let md = std::fs::read_to_string(dir.join("compare.md")).context("reading compare.md")?;
-    let cells = |l: &str| {
-        l.trim()
-            .trim_matches('|')
-            .split('|')
-            .map(|c| c.trim().to_string())
-            .collect::<Vec<_>>()
-    };
-    let mut lines = md.lines().filter(|l| l.starts_with('|'));
-    let head = lines.next().map(cells).unwrap_or_default();
-    let rows: Vec<Vec<String>> = lines.skip(1).map(cells).collect();
+fn compare_blocks(dir: &Path) -> Result<(String, Vec<Block>), Failure> {
+    let rows: Vec<CompareRow> = read_rows(&dir.join("compare.csv"))?;
+    let schemes: Vec<String> = rows.iter().map(|r| r.scheme.clone()).collect();
     let mut blocks = vec![
         Block::Heading("Schemes side by side".into()),
-        Block::Table(head, rows),
+        compare_table(&rows),
     ];
     if let Ok(p) = png(&dir.join("compare.png")) {
-        blocks.push(Block::Image(
-            "one row per scheme, one column per time, one colour scale".into(),
-            p,
-        ));
+        let caption = "one row per scheme, one column per time, one colour scale";
+        blocks.push(Block::Image(caption.into(), p));
     }
-    if let Some((h, rows)) = read_csv(&dir.join("compare_metrics.csv")) {
-        // The scheme column is text: re-read it to group the rows.
-        let text = std::fs::read_to_string(dir.join("compare_metrics.csv"))?;
-        let schemes: Vec<String> = text
-            .lines()
-            .skip(1)
-            .map(|l| l.split(',').next().unwrap_or("").to_string())
-            .collect();
-        let mut names: Vec<String> = Vec::new();
-        for s in &schemes {
-            if !names.contains(s) {
-                names.push(s.clone());
-            }
-        }
-        for metric in [
-            "kinetic_energy",
-            "angular_momentum",
-            "min_pair_distance_l0",
-            "rms_speed",
-            "nd_spread",
-        ] {
-            let Some(col) = h.iter().position(|x| x == metric) else {
-                continue;
-            };
-            let series: Vec<Series> = names
-                .iter()
-                .map(|n| Series {
-                    name: n.clone(),
-                    points: rows
-                        .iter()
-                        .zip(&schemes)
-                        .filter(|(_, s)| *s == n)
-                        .map(|(r, _)| (r[1], r[col]))
-                        .collect(),
-                    markers: false,
-                })
-                .collect();
-            let c = line_chart(metric, "time (s)", metric, &series, 800, 450);
-            blocks.push(Block::Image(format!("{metric} per scheme"), c.png_bytes()));
-        }
-    }
-    for n in std::fs::read_dir(dir)?.flatten() {
-        if n.path().join("summary.toml").exists() {
-            blocks.push(Block::Heading(format!(
-                "Scheme {}",
-                n.file_name().to_string_lossy()
-            )));
-            let (_, b) = run_blocks(&n.path())?;
-            blocks.extend(b.into_iter().filter(|x| matches!(x, Block::Table(..))));
+    blocks.extend(compare_charts(dir, &schemes)?);
+    for s in &schemes {
+        let sub = dir.join(s);
+        if sub.join("summary.toml").exists() {
+            blocks.push(Block::Heading(format!("Scheme {s}")));
+            let summary = RunSummary::read(&sub)?;
+            blocks.push(run_table(&summary));
+            blocks.extend(
+                result_tables(&summary)
+                    .into_iter()
+                    .filter(|b| matches!(b, Block::Table(..))),
+            );
         }
     }
     Ok((format!("MPS scheme comparison: {}", dir.display()), blocks))
 }
 
 /// Writes `DIR/report.html`; returns its path.
-pub fn write_report(dir: &Path) -> Result<PathBuf> {
-    let (title, blocks) = if dir.join("compare.md").exists() {
+pub fn write_report(dir: &Path) -> Result<PathBuf, Failure> {
+    let (title, blocks) = if dir.join("compare.csv").exists() {
         compare_blocks(dir)?
     } else {
         run_blocks(dir)?
     };
     let path = dir.join("report.html");
-    mps::output::write_atomic(&path, html(&title, &blocks).as_bytes())
-        .with_context(|| format!("writing {}", path.display()))?;
+    mps::io::write_atomic(&path, html(&title, &blocks).as_bytes())?;
     Ok(path)
 }
 
-pub fn cmd_report(a: ReportArgs) -> Result<ExitCode> {
-    if !a.dir.join("summary.toml").exists() && !a.dir.join("compare.md").exists() {
-        eprintln!(
-            "error: {}: neither a run folder (summary.toml) nor a comparison (compare.md)",
+pub fn cmd_report(a: ReportArgs) -> CmdResult {
+    if !a.dir.join("summary.toml").exists() && !a.dir.join("compare.csv").exists() {
+        return Err(bad(format!(
+            "{}: neither a run folder (summary.toml) nor a comparison (compare.csv)",
             a.dir.display()
-        );
-        return Ok(ExitCode::from(1));
+        )));
     }
     println!("{}", write_report(&a.dir)?.display());
     Ok(ExitCode::SUCCESS)

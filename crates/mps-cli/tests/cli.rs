@@ -268,8 +268,9 @@ fn render_plot_and_report_a_run() {
     assert!(png.ends_with(".png") && std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
     let out = mps().arg("plot").arg(&dir).output().unwrap();
     assert!(out.status.success());
-    assert!(dir.join("figures/metric_kinetic_energy.png").exists());
-    assert!(dir.join("figures/probe_bottom.png").exists());
+    let svg = std::fs::read_to_string(dir.join("figures/metric_kinetic_energy.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("kinetic_energy"));
+    assert!(dir.join("figures/probe_bottom.svg").exists());
     let out = mps().arg("report").arg(&dir).output().unwrap();
     assert!(
         out.status.success(),
@@ -278,7 +279,8 @@ fn render_plot_and_report_a_run() {
     );
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
     assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
-    assert!(html.matches("<img ").count() >= 10, "images embedded");
+    assert!(html.matches("<svg").count() >= 10, "charts inlined");
+    assert!(html.matches("<img ").count() >= 2, "snapshots embedded");
     assert!(html.contains("src=\"data:image/png;base64,"));
     assert!(html.contains("<th>check</th>") && html.contains("hydrostatic_bottom_pressure"));
     assert!(
@@ -324,9 +326,9 @@ fn render_plot_and_report_a_run() {
         "no screenshot: {}",
         String::from_utf8_lossy(&status.stderr)
     );
-    let decoder = png::Decoder::new(std::fs::File::open(&shot).unwrap());
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&shot).unwrap()));
     let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size()];
+    let mut buf = vec![0; reader.output_buffer_size().expect("image size")];
     let info = reader.next_frame(&mut buf).unwrap();
     let px = &buf[..info.buffer_size()];
     let non_white = px

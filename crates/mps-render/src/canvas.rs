@@ -1,6 +1,5 @@
 //! An RGB raster with the few primitives the figures need, and PNG encoding.
 
-use std::io;
 use std::path::Path;
 
 /// An RGB image, row-major from the top-left corner.
@@ -126,7 +125,7 @@ impl Canvas {
         out
     }
     /// Writes a PNG file atomically.
-    pub fn write_png(&self, path: &Path) -> io::Result<()> {
-        mps::output::write_atomic(path, &self.png_bytes())
+    pub fn write_png(&self, path: &Path) -> mps::error::Result<()> {
+        mps::io::write_atomic(path, &self.png_bytes())
     }
 }

@@ -1,8 +1,10 @@
-//! Line charts of time series: axes with round-number ticks, a legend, lines for computed
-//! series and markers for reference data.
+//! Line charts of time series and benchmark ladders as SVG, drawn by `plotters`: round-number
+//! ticks, a legend, lines for computed series and markers for reference data, logarithmic
+//! axes where the data spans decades.
 
-use crate::canvas::{Canvas, BLACK, WHITE};
-use crate::snapshot::fmt_value;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::*;
 
 /// One curve of a chart.
 #[derive(Clone, Debug)]
@@ -15,190 +17,176 @@ pub struct Series {
     pub markers: bool,
 }
 
-const PALETTE: [[u8; 3]; 6] = [
-    [31, 119, 180],
-    [214, 39, 40],
-    [44, 160, 44],
-    [255, 127, 14],
-    [148, 103, 189],
-    [140, 86, 75],
-];
-const LEFT: f64 = 90.0;
-const RIGHT: f64 = 20.0;
-const TOP: f64 = 44.0;
-const BOTTOM: f64 = 46.0;
-
-/// Round tick positions covering [lo, hi], about five of them.
-pub fn ticks(lo: f64, hi: f64) -> Vec<f64> {
-    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
-        return vec![lo];
-    }
-    let raw = (hi - lo) / 5.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * mag);
-    let mut t = (lo / step).ceil() * step;
-    let mut out = Vec::new();
-    while t <= hi + 1e-9 * step {
-        out.push(if t.abs() < 1e-12 * step { 0.0 } else { t });
-        t += step;
-    }
-    out
+/// A chart: title, axis labels, curves and axis scales.
+#[derive(Clone, Debug, Default)]
+pub struct Chart {
+    /// Title above the plot.
+    pub title: String,
+    /// Label of the x axis, with its unit.
+    pub x_label: String,
+    /// Label of the y axis, with its unit.
+    pub y_label: String,
+    /// The curves.
+    pub series: Vec<Series>,
+    /// Logarithmic x axis.
+    pub log_x: bool,
+    /// Logarithmic y axis.
+    pub log_y: bool,
 }
 
-/// Draws a chart of `series` with a title and axis labels.
-pub fn line_chart(
-    title: &str,
-    xlabel: &str,
-    ylabel: &str,
-    series: &[Series],
-    width: u32,
-    height: u32,
-) -> Canvas {
-    let mut c = Canvas::new(width, height);
-    let pts = series
-        .iter()
-        .flat_map(|s| s.points.iter())
-        .filter(|p| p.0.is_finite() && p.1.is_finite());
-    let (mut x0, mut x1, mut y0, mut y1) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for p in pts {
-        x0 = x0.min(p.0);
-        x1 = x1.max(p.0);
-        y0 = y0.min(p.1);
-        y1 = y1.max(p.1);
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+
+/// Chart size (px).
+const SIZE: (u32, u32) = (820, 460);
+
+/// The data range `(lo, hi)` of the points usable on the axis (positive for a log axis),
+/// widened when degenerate.
+fn range(values: impl Iterator<Item = f64>, log: bool, pad: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite() && (!log || *v > 0.0)) {
+        lo = lo.min(v);
+        hi = hi.max(v);
     }
-    if !x0.is_finite() {
-        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    if !lo.is_finite() {
+        return if log { (1.0, 10.0) } else { (0.0, 1.0) };
     }
-    if x1 <= x0 {
-        x1 = x0 + 1.0;
+    if log {
+        let (l, h) = (lo.log10(), hi.log10().max(lo.log10() + 1e-3));
+        let p = pad * (h - l);
+        return (10f64.powf(l - p), 10f64.powf(h + p));
     }
-    if y1 <= y0 {
-        let d = if y0 == 0.0 { 1.0 } else { 0.1 * y0.abs() };
-        y0 -= d;
-        y1 += d;
+    if hi <= lo {
+        let d = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
+        return (lo - d, hi + d);
     }
-    let pad = 0.05 * (y1 - y0);
-    let (y0, y1) = (y0 - pad, y1 + pad);
-    let (w, h) = (width as f64 - LEFT - RIGHT, height as f64 - TOP - BOTTOM);
-    let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * w;
-    let py = |y: f64| TOP + (y1 - y) / (y1 - y0) * h;
-    // Axes, ticks, grid.
-    for t in ticks(x0, x1) {
-        let x = px(t);
-        c.line(x, TOP, x, TOP + h, 1.0, [230, 230, 230]);
-        let s = fmt_value(t);
-        c.text(
-            x as i64 - 4 * s.len() as i64,
-            (TOP + h + 6.0) as i64,
-            &s,
-            1,
-            BLACK,
-        );
-    }
-    for t in ticks(y0, y1) {
-        let y = py(t);
-        c.line(LEFT, y, LEFT + w, y, 1.0, [230, 230, 230]);
-        let s = fmt_value(t);
-        c.text(
-            LEFT as i64 - 6 - 8 * s.len() as i64,
-            y as i64 - 4,
-            &s,
-            1,
-            BLACK,
-        );
-    }
-    c.line(LEFT, TOP + h, LEFT + w, TOP + h, 1.0, BLACK);
-    c.line(LEFT, TOP, LEFT, TOP + h, 1.0, BLACK);
-    c.text(10, 10, title, 2, BLACK);
-    c.text(
-        (LEFT + w / 2.0) as i64 - 4 * xlabel.len() as i64,
-        height as i64 - 16,
-        xlabel,
-        1,
-        BLACK,
-    );
-    c.text(10, 30, ylabel, 1, BLACK);
-    // Curves.
-    for (k, s) in series.iter().enumerate() {
+    let p = pad * (hi - lo);
+    (lo - p, hi + p)
+}
+
+/// Draws `c` on the SVG backend with the given axes.
+fn draw<X, Y>(c: &Chart, svg: &mut String, x: X, y: Y) -> Result<(), String>
+where
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let e = |e: &dyn std::fmt::Display| e.to_string();
+    let root = SVGBackend::with_string(svg, SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(&c.title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(78)
+        .build_cartesian_2d(x, y)
+        .map_err(|x| e(&x))?;
+    chart
+        .configure_mesh()
+        .x_desc(&c.x_label)
+        .y_desc(&c.y_label)
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()
+        .map_err(|x| e(&x))?;
+    for (k, s) in c.series.iter().enumerate() {
         let col = PALETTE[k % PALETTE.len()];
-        let finite: Vec<(f64, f64)> = s
-            .points
-            .iter()
-            .copied()
-            .filter(|p| p.0.is_finite() && p.1.is_finite())
-            .collect();
-        if s.markers {
-            for p in &finite {
-                c.disc(px(p.0), py(p.1), 3.0, col);
-            }
+        let ok = |p: &&(f64, f64)| {
+            p.0.is_finite() && p.1.is_finite() && (!c.log_x || p.0 > 0.0) && (!c.log_y || p.1 > 0.0)
+        };
+        let pts: Vec<(f64, f64)> = s.points.iter().filter(ok).copied().collect();
+        let legend = if s.markers {
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, col.filled())))
+                .map_err(|x| e(&x))?
         } else {
-            for pair in finite.windows(2) {
-                c.line(
-                    px(pair[0].0),
-                    py(pair[0].1),
-                    px(pair[1].0),
-                    py(pair[1].1),
-                    1.5,
-                    col,
-                );
-            }
-        }
-        // Legend, top right.
-        let ly = TOP as i64 + 8 + 14 * k as i64;
-        let lx = (LEFT + w) as i64 - 12 - 8 * s.name.len() as i64 - 24;
-        c.rect(lx - 4, ly - 3, (LEFT + w) as i64 - 4, ly + 11, WHITE);
-        c.rect(lx, ly + 3, lx + 16, ly + 5, col);
-        c.text(lx + 22, ly, &s.name, 1, BLACK);
+            chart
+                .draw_series(LineSeries::new(pts, col.stroke_width(2)))
+                .map_err(|x| e(&x))?
+        };
+        legend
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], col.stroke_width(3)));
     }
-    c
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(200, 200, 200))
+        .label_font(("sans-serif", 15))
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|x| e(&x))?;
+    root.present().map_err(|x| e(&x))?;
+    Ok(())
+}
+
+/// The chart as an SVG document.
+pub fn line_chart_svg(c: &Chart) -> Result<String, String> {
+    let xs = || c.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+    let ys = || c.series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let (x0, x1) = range(xs(), c.log_x, 0.0);
+    let (y0, y1) = range(ys(), c.log_y, 0.05);
+    let mut svg = String::new();
+    let lin = |a: f64, b: f64| -> RangedCoordf64 { (a..b).into() };
+    match (c.log_x, c.log_y) {
+        (false, false) => draw(c, &mut svg, lin(x0, x1), lin(y0, y1))?,
+        (true, false) => draw(c, &mut svg, (x0..x1).log_scale(), lin(y0, y1))?,
+        (false, true) => draw(c, &mut svg, lin(x0, x1), (y0..y1).log_scale())?,
+        (true, true) => draw(c, &mut svg, (x0..x1).log_scale(), (y0..y1).log_scale())?,
+    }
+    Ok(svg)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn ticks_are_round_and_cover_the_range() {
-        assert_eq!(
-            ticks(0.0, 1.0),
-            vec![0.0, 0.2, 0.4, 0.6000000000000001, 0.8, 1.0]
-        );
-        let t = ticks(-147.0, 12.0);
-        assert!(t.iter().all(|v| (v / 50.0).fract().abs() < 1e-9));
-        assert!(t[0] >= -147.0 && *t.last().unwrap() <= 12.0);
+    fn chart(log: bool) -> Chart {
+        Chart {
+            title: "t".into(),
+            x_label: "particles".into(),
+            y_label: "ms".into(),
+            series: vec![
+                Series {
+                    name: "y = x".into(),
+                    points: (1..=5).map(|k| (10f64.powi(k), k as f64)).collect(),
+                    markers: false,
+                },
+                Series {
+                    name: "reference".into(),
+                    points: vec![(100.0, 2.0)],
+                    markers: true,
+                },
+            ],
+            log_x: log,
+            log_y: false,
+        }
     }
 
     #[test]
-    fn a_rising_line_rises_on_the_canvas() {
-        let s = Series {
-            name: "y = x".into(),
-            points: (0..=10).map(|k| (k as f64, k as f64)).collect(),
-            markers: false,
-        };
-        let c = line_chart("t", "x", "y", &[s], 400, 300);
-        let col = PALETTE[0];
-        // Find the curve's pixels in the left and right quarter: the right ones sit higher.
-        let mean_row = |xa: u32, xb: u32| {
-            let (mut sum, mut n) = (0.0, 0.0);
-            for x in xa..xb {
-                for y in 0..c.height {
-                    if c.get(x, y) == col {
-                        sum += y as f64;
-                        n += 1.0;
-                    }
-                }
-            }
-            sum / n
-        };
-        assert!(mean_row(100, 150) > mean_row(300, 360));
+    fn a_chart_is_an_svg_with_its_labels_and_legend() {
+        let svg = line_chart_svg(&chart(true)).unwrap();
+        assert!(svg.starts_with("<svg"), "{}", &svg[..80]);
+        for text in ["particles", "ms", "y = x", "reference"] {
+            assert!(svg.contains(text), "{text} missing");
+        }
+        // A log axis labels decades.
+        assert!(svg.contains(">1000<") || svg.contains(">1e3<") || svg.contains("1000"));
+    }
+
+    #[test]
+    fn ranges_are_padded_and_never_empty() {
+        assert_eq!(range([2.0, 2.0].into_iter(), false, 0.0), (1.8, 2.2));
+        assert_eq!(range([f64::NAN].into_iter(), false, 0.0), (0.0, 1.0));
+        let (lo, hi) = range([-1.0, 10.0, 1000.0].into_iter(), true, 0.0);
+        assert!((lo - 10.0).abs() < 1e-9 && (hi - 1000.0).abs() < 1e-6);
     }
 }

@@ -4,19 +4,9 @@
 
 use crate::canvas::{Canvas, BLACK, WHITE};
 use crate::colormap::viridis;
-use mps::output::{read_vtu_arrays, read_vtu_field_data};
+use mps::io::vtu::read_vtu;
 
-/// The (time, file) entries of a `.pvd` index written by the solver.
-pub fn read_pvd(text: &str) -> Vec<(f64, String)> {
-    let attr = |line: &str, k: &str| -> Option<String> {
-        let at = line.find(&format!("{k}=\""))? + k.len() + 2;
-        Some(line[at..at + line[at..].find('"')?].to_string())
-    };
-    text.lines()
-        .filter(|l| l.contains("<DataSet"))
-        .filter_map(|l| Some((attr(l, "timestep")?.parse().ok()?, attr(l, "file")?)))
-        .collect()
-}
+pub use mps::io::vtu::read_pvd;
 
 /// One output state of a run, as read from its VTU file.
 #[derive(Clone, Debug, Default)]
@@ -60,6 +50,13 @@ fn estimate_spacing(p: &[[f64; 2]]) -> Option<f64> {
     Some(d[d.len() / 2])
 }
 
+impl std::str::FromStr for Field {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Field, String> {
+        Field::parse(s).ok_or_else(|| format!("{s}: one of {}", Field::NAMES.join(", ")))
+    }
+}
+
 /// The quantity a snapshot is coloured by.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Field {
@@ -74,6 +71,9 @@ pub enum Field {
 }
 
 impl Field {
+    /// The field names as written on the command line.
+    pub const NAMES: [&'static str; 4] = ["pressure", "velocity", "phase", "density"];
+
     /// Parses `pressure`, `velocity`, `phase`, `density`.
     pub fn parse(s: &str) -> Option<Field> {
         match s {
@@ -82,6 +82,16 @@ impl Field {
             "phase" => Some(Field::Phase),
             "density" => Some(Field::Density),
             _ => None,
+        }
+    }
+
+    /// Its name on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Field::Pressure => "pressure",
+            Field::Velocity => "velocity",
+            Field::Phase => "phase",
+            Field::Density => "density",
         }
     }
     /// Name and unit for titles and colour bars.
@@ -98,30 +108,20 @@ impl Field {
 impl Frame {
     /// Reads a frame from the bytes of a VTU file written by the solver.
     pub fn from_vtu(bytes: &[u8]) -> Result<Frame, String> {
-        let arrays = read_vtu_arrays(bytes).ok_or("not a VTU file written by mps")?;
-        let get = |n: &str| -> Result<Vec<f64>, String> {
-            arrays
-                .iter()
-                .find(|a| a.0 == n)
-                .map(|a| a.1.clone())
-                .ok_or(format!("array `{n}` missing"))
-        };
-        let pts = get("Points")?;
-        let vel = get("velocity")?;
-        let pairs = |v: &[f64]| v.chunks_exact(3).map(|c| [c[0], c[1]]).collect::<Vec<_>>();
-        let position = pairs(&pts);
-        let spacing = read_vtu_field_data(bytes, "Spacing")
+        let (p, time, spacing) = read_vtu::<2>(bytes)?;
+        let position: Vec<[f64; 2]> = p.position.iter().map(|x| x.0).collect();
+        let spacing = spacing
             .or_else(|| estimate_spacing(&position))
             .ok_or("no Spacing in field data and too few particles to estimate it")?;
         Ok(Frame {
-            time: read_vtu_field_data(bytes, "TimeValue").unwrap_or(0.0),
+            time: time.unwrap_or(0.0),
             spacing,
             position,
-            velocity: pairs(&vel),
-            kind: get("kind")?.iter().map(|&k| k as u8).collect(),
-            pressure: get("pressure")?,
-            density: get("density")?,
-            phase: get("phase")?,
+            velocity: p.velocity.iter().map(|u| u.0).collect(),
+            kind: p.kind.iter().map(|&k| k as u8).collect(),
+            pressure: p.pressure,
+            density: p.density,
+            phase: p.phase.iter().map(|&v| v as f64).collect(),
         })
     }
 
@@ -480,18 +480,17 @@ mod tests {
 
     #[test]
     fn a_frame_round_trips_through_vtu() {
-        use mps::particles::{Kind, Particles};
-        use mps::vector::Vector;
+        use mps::particles::{Kind, NewParticle, Particles, Vector};
         let mut p = Particles::<2>::default();
-        p.push(
-            Vector([0.1, 0.2]),
-            Vector([1.0, 2.0]),
-            Kind::Fluid,
-            0,
-            1000.0,
-        );
+        p.push(NewParticle {
+            position: Vector([0.1, 0.2]),
+            velocity: Vector([1.0, 2.0]),
+            kind: Kind::Fluid,
+            phase: 0,
+            density: 1000.0,
+        });
         p.pressure[0] = 42.0;
-        let b = mps::output::vtu_bytes(&p, 0.75, 0.005);
+        let b = mps::io::vtu::vtu_bytes(&p, 0.75, 0.005);
         let f = Frame::from_vtu(&b).unwrap();
         assert_eq!(f.time, 0.75);
         assert_eq!(f.spacing, 0.005);

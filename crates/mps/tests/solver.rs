@@ -2,14 +2,13 @@
 
 mod common;
 use common::{example, sim, tmp};
-use mps::fields::{Fields, Kernels};
-use mps::linsolve::{pcg, Preconditioner};
-use mps::neighbors::build_neighbor_list;
-use mps::particles::Kind;
-use mps::ppe::assemble;
+use mps::linalg::{pcg, Ic0, Identity, Jacobi, Precondition};
+use mps::numerics::ppe::assemble;
+use mps::numerics::Kernels;
+use mps::particles::neighbors::build_neighbor_list;
+use mps::particles::{Kind, Vector, View};
 use mps::run::{run, Silent};
-use mps::scheme::Scheme;
-use mps::vector::Vector;
+use std::path::Path;
 
 /// A fluid lattice block in a tank, uniformly compressed toward its centre, gives positive
 /// pressure everywhere inside, with the PND and with the HS source.
@@ -43,12 +42,12 @@ fn uniform_compression_gives_positive_pressure() {
         let k = Kernels::new::<2>(l0, 2.1, 3.1);
         let nl = build_neighbor_list(&pos, 3.4 * l0);
         let nd: Vec<f64> = (0..pos.len())
-            .map(|i| mps::operators::number_density(i, &pos, nl.of(i), k.grad.re))
+            .map(|i| mps::numerics::operators::number_density(i, &pos, &nl, k.grad.re))
             .collect();
         let surface: Vec<bool> = (0..pos.len())
             .map(|i| p.kind[i] == Kind::Fluid && nd[i] < 0.97 * k.grad.n0)
             .collect();
-        let f = Fields {
+        let f = View {
             pos: &pos,
             vel: &vel,
             kind: &p.kind,
@@ -57,19 +56,12 @@ fn uniform_compression_gives_positive_pressure() {
             number_density: &nd,
             neighbors: &nl,
         };
-        let sc =
-            Scheme::from_spec(&example("hydrostatic", &[("scheme.name", scheme)]).scheme).unwrap();
+        let sc = example("hydrostatic", &[("scheme.name", scheme)])
+            .scheme("test")
+            .unwrap();
         let sys = assemble(&f, &k, &sc, Vector([0.0, 0.0]), dt);
         let mut x = vec![0.0; sys.rhs.len()];
-        pcg(
-            &sys.matrix,
-            &sys.rhs,
-            &mut x,
-            &Preconditioner::Identity,
-            1e-10,
-            10000,
-        )
-        .unwrap();
+        pcg(&sys.matrix, &sys.rhs, &mut x, &Identity, 1e-10, 10000).unwrap();
         let inner: Vec<f64> = sys
             .particle_of
             .iter()
@@ -101,9 +93,9 @@ fn ppe_matrix_is_symmetric_mid_run() {
     let k = Kernels::new::<2>(l0, 2.1, 3.1);
     let p = &s.particles;
     let nl = build_neighbor_list(&p.position, 3.4 * l0);
-    let f = Fields {
+    let f = View {
         neighbors: &nl,
-        ..s.fields()
+        ..s.view()
     };
     let sys = assemble(&f, &k, &s.scheme, s.gravity, 1e-4);
     let maxv = sys.matrix.val.iter().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -195,7 +187,7 @@ fn square_patch_initial_centre_pressure() {
     let p = s.sample_pressure(&Vector([0.0, 0.0])).unwrap();
     assert!(((p + 147.34) / 147.34).abs() < 0.005, "centre pressure {p}");
     // Clockwise rotation: angular momentum -rho omega L^4 / 6 per unit depth (lattice sum).
-    let m = mps::diagnostics::Metrics::measure(&s);
+    let m = mps::analysis::metrics::Metrics::measure(&s);
     assert!(
         ((m.angular_momentum + 166.67) / 166.67).abs() < 0.01,
         "{}",
@@ -261,9 +253,9 @@ fn restart_from_checkpoint_is_bit_identical() {
         for _ in 0..20 {
             first.step(1.0).unwrap();
         }
-        bytes = mps::checkpoint::checkpoint_bytes(&first);
+        bytes = mps::io::checkpoint::checkpoint_bytes(&first);
         let mut resumed = sim("dam_break", &set);
-        mps::checkpoint::restore(&mut resumed, &bytes).unwrap();
+        mps::io::checkpoint::restore(&mut resumed, &bytes, Path::new("ck")).unwrap();
         assert_eq!(resumed.step_count, 20);
         for _ in 0..20 {
             resumed.step(1.0).unwrap();
@@ -284,9 +276,9 @@ fn restart_from_checkpoint_is_bit_identical() {
     }
     // A checkpoint of another case is refused with a reason.
     let mut other = sim("hydrostatic", &[]);
-    let e = mps::checkpoint::restore(&mut other, &bytes).unwrap_err();
-    assert!(e.contains("particles"), "{e}");
-    assert!(mps::checkpoint::restore(&mut other, b"garbage").is_err());
+    let e = mps::io::checkpoint::restore(&mut other, &bytes, Path::new("ck")).unwrap_err();
+    assert!(e.to_string().contains("particles"), "{e}");
+    assert!(mps::io::checkpoint::restore(&mut other, b"garbage", Path::new("ck")).is_err());
 }
 
 /// The PPE of a dam break mid-run (free surface, walls, moving front), solved by every
@@ -296,8 +288,7 @@ fn restart_from_checkpoint_is_bit_identical() {
 fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
     use faer::linalg::solvers::Solve;
     use faer::sparse::{SparseColMat, Triplet};
-    use mps::amg::{Amg, AmgParams};
-    use mps::linsolve::Ic0;
+    use mps::linalg::{Amg, AmgParams};
 
     let mut s = sim("dam_break", &[("scheme.name", "MPS-HS-GC-DS")]);
     s.keep_system = true;
@@ -322,18 +313,16 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
     let norm = exact.iter().map(|v| v * v).sum::<f64>().sqrt();
     assert!(norm > 0.0);
 
-    let jacobi = Preconditioner::Jacobi(a.diagonal().iter().map(|d| 1.0 / d).collect());
-    let ic0 = Preconditioner::Ic0(Ic0::new(a).expect("IC(0) exists for an M-matrix"));
+    let jacobi = Jacobi::new(a);
+    let ic0 = Ic0::new(a).expect("IC(0) exists for an M-matrix");
     let amg = Amg::new(a, AmgParams::default()).expect("hierarchy builds");
     assert!(amg.num_levels() >= 2);
     let mut results = Vec::new();
-    for (name, pre) in [
-        ("cg", Preconditioner::Identity),
-        ("jacobi-cg", jacobi),
-        ("ic0-cg", ic0),
-    ] {
+    let preconditioners: [(&str, &dyn Precondition); 3] =
+        [("cg", &Identity), ("jacobi-cg", &jacobi), ("ic0-cg", &ic0)];
+    for (name, pre) in preconditioners {
         let mut x = vec![0.0; n];
-        let st = pcg(a, &sys.rhs, &mut x, &pre, 1e-10, 20_000).expect(name);
+        let st = pcg(a, &sys.rhs, &mut x, pre, 1e-10, 20_000).expect(name);
         results.push((name, x, st.iterations));
     }
     let mut x = vec![0.0; n];
@@ -370,9 +359,8 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
 /// wrong, converges like a one-level method and fails this.
 #[test]
 fn amg_iterations_stay_flat_from_16k_to_256k_particles() {
-    use mps::amg::{Amg, AmgParams};
-    use mps::kernel::weight;
-    use mps::linsolve::CsrMatrix;
+    use mps::linalg::{Amg, AmgParams, CsrMatrix};
+    use mps::numerics::weight;
 
     fn lattice_laplacian(m: usize) -> CsrMatrix {
         let re = 3.1f64;

@@ -72,11 +72,11 @@ fn dam_break_front_against_martin_moyce() {
 #[ignore = "validation run (release mode): cargo test --release -- --ignored"]
 fn square_patch_with_dynamic_stabilization() {
     let mut s = sim("square_patch", &[("output.vtu", "false")]);
-    let m0 = mps::diagnostics::Metrics::measure(&s);
+    let m0 = mps::analysis::metrics::Metrics::measure(&s);
     let dir = tmp("square_patch");
     let summary = run(&mut s, &dir, &mut Silent).unwrap();
     assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
-    let m = mps::diagnostics::Metrics::measure(&s);
+    let m = mps::analysis::metrics::Metrics::measure(&s);
     let ke = m.kinetic_energy / m0.kinetic_energy - 1.0;
     let am = m.angular_momentum / m0.angular_momentum - 1.0;
     eprintln!(

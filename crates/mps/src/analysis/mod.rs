@@ -1,0 +1,12 @@
+//! Analysis: what is measured on a run: stability metrics, fluid groups, validation against
+//! reference data, the run summary, and scheme comparisons.
+//!
+//! Reads `simulation` and `particles`; never changes a simulation.
+
+pub mod compare;
+pub mod groups;
+pub mod metrics;
+pub mod summary;
+pub mod validation;
+
+pub use summary::{GroupSummary, RunSummary};

@@ -1,0 +1,226 @@
+//! Comparisons of a run against reference data: the dam-break front against Martin & Moyce
+//! (1952), and the hydrostatic bottom pressure against `rho g H`.
+
+use serde::{Deserialize, Serialize};
+
+/// Martin & Moyce (1952), column height/width 2, a = 2.25 in: `T = t sqrt(2g/a)`, `Z = z/a`.
+pub const MARTIN_MOYCE: &str = include_str!("../../data/martin_moyce_1952_a2.25in.csv");
+
+/// The (T, Z) points of [`MARTIN_MOYCE`].
+pub fn martin_moyce() -> Vec<(f64, f64)> {
+    MARTIN_MOYCE
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with('T'))
+        .filter_map(|l| {
+            let mut it = l.split(',');
+            Some((
+                it.next()?.trim().parse().ok()?,
+                it.next()?.trim().parse().ok()?,
+            ))
+        })
+        .collect()
+}
+
+/// One validation figure of a run.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ValidationResult {
+    /// What was compared.
+    pub name: String,
+    /// The simulated value.
+    pub value: f64,
+    /// The reference value (0 where the figure is an error norm).
+    pub reference: f64,
+    /// Relative error, or the error norm itself.
+    pub error: f64,
+    /// A sentence on how it was measured.
+    pub note: String,
+    /// Largest accepted |error| (the acceptance tolerance of the check).
+    pub tolerance: f64,
+    /// Whether |error| is within the tolerance.
+    pub passed: bool,
+}
+
+impl ValidationResult {
+    /// A result whose pass/fail follows from `|error| <= tolerance`.
+    pub fn new(
+        name: &str,
+        value: f64,
+        reference: f64,
+        error: f64,
+        tolerance: f64,
+        note: String,
+    ) -> Self {
+        ValidationResult {
+            name: name.into(),
+            value,
+            reference,
+            error,
+            note,
+            tolerance,
+            passed: error.abs() <= tolerance,
+        }
+    }
+}
+
+/// Linear interpolation in a time series sorted by time; `None` outside it.
+pub fn interpolate(series: &[(f64, f64)], t: f64) -> Option<f64> {
+    if series.is_empty() || t < series[0].0 || t > series[series.len() - 1].0 {
+        return None;
+    }
+    let k = series.partition_point(|s| s.0 < t);
+    if k == 0 {
+        return Some(series[0].1);
+    }
+    let (a, b) = (series[k - 1], series[k]);
+    if b.0 == a.0 {
+        return Some(b.1);
+    }
+    Some(a.1 + (b.1 - a.1) * (t - a.0) / (b.0 - a.0))
+}
+
+/// Dam-break comparison rows `(T, Z_exp, Z_sim)` at every experimental point the run
+/// covered, and the RMS of `Z_sim - Z_exp`. `front` holds `(t, x_front - wall_x)` (s, m).
+pub fn dam_break_front(
+    front: &[(f64, f64)],
+    column_width: f64,
+    g: f64,
+) -> (Vec<(f64, f64, f64)>, f64) {
+    let scale = (2.0 * g / column_width).sqrt();
+    let nd: Vec<(f64, f64)> = front
+        .iter()
+        .map(|&(t, x)| (t * scale, x / column_width))
+        .collect();
+    let rows: Vec<(f64, f64, f64)> = martin_moyce()
+        .into_iter()
+        .filter_map(|(tt, z)| interpolate(&nd, tt).map(|s| (tt, z, s)))
+        .collect();
+    let rms = if rows.is_empty() {
+        f64::NAN
+    } else {
+        (rows.iter().map(|r| (r.2 - r.1).powi(2)).sum::<f64>() / rows.len() as f64).sqrt()
+    };
+    (rows, rms)
+}
+
+/// Mean of a time series over `[t_end - window, t_end]`.
+pub fn window_mean(series: &[(f64, f64)], window: f64) -> Option<f64> {
+    let t_end = series.last()?.0;
+    let sel: Vec<f64> = series
+        .iter()
+        .filter(|s| s.0 >= t_end - window)
+        .map(|s| s.1)
+        .collect();
+    (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
+}
+
+/// Hydrostatic check: the mean of a probe over the last `window` s against the reference
+/// `exact` (Pa), within 5 %.
+pub fn hydrostatic(
+    probe: &str,
+    series: &[(f64, f64)],
+    window: f64,
+    exact: f64,
+    given: bool,
+) -> Option<ValidationResult> {
+    let mean = window_mean(series, window)?;
+    Some(ValidationResult::new(
+        "hydrostatic_bottom_pressure",
+        mean,
+        exact,
+        (mean - exact) / exact,
+        0.05,
+        format!(
+            "mean of probe `{probe}` over the last {window} s against {}",
+            if given {
+                "the given reference"
+            } else {
+                "rho g H"
+            }
+        ),
+    ))
+}
+
+/// Dam-break check: RMS of `Z_sim - Z_exp` against Martin & Moyce at most 0.3, and the rows
+/// of the comparison.
+pub fn dam_break(
+    front: &[(f64, f64)],
+    column_width: f64,
+    g: f64,
+    l0: f64,
+) -> (ValidationResult, Vec<(f64, f64, f64)>) {
+    let (rows, rms) = dam_break_front(front, column_width, g);
+    let result = ValidationResult::new(
+        "dam_break_front_rms_Z",
+        rms,
+        0.0,
+        rms,
+        0.3,
+        format!(
+            "RMS of Z_sim - Z_exp over {} Martin & Moyce points, l0 = {l0} m (L/l0 = {:.1})",
+            rows.len(),
+            column_width / l0
+        ),
+    );
+    (result, rows)
+}
+
+/// Early acceleration of groups released from rest: the mean over groups of
+/// `|2 dy / t^2|` of their centroids at the first recorded time `te >= early_time` (s),
+/// against the mean of `g |rho_g - rho_w| / (rho_g + rho_w)`, within 30 %. `series` holds
+/// `(t, centroid (x, y) per group)`, `densities` each group's density (kg/m^3).
+pub fn early_acceleration(
+    series: &[(f64, Vec<(f64, f64)>)],
+    early_time: f64,
+    densities: &[f64],
+    rho_w: f64,
+    g: f64,
+) -> Option<ValidationResult> {
+    let start = series.first()?;
+    let at = series.iter().find(|s| s.0 >= early_time)?;
+    let te = at.0;
+    let (mut sum, mut est) = (0.0, 0.0);
+    for (k, &rho_g) in densities.iter().enumerate() {
+        sum += 2.0 * (at.1[k].1 - start.1[k].1).abs() / (te * te);
+        est += g * (rho_g - rho_w).abs() / (rho_g + rho_w);
+    }
+    let n = densities.len().max(1) as f64;
+    let (meas, estimate) = (sum / n, est / n);
+    Some(ValidationResult::new(
+        "group_early_acceleration",
+        meas,
+        estimate,
+        (meas - estimate) / estimate,
+        0.3,
+        format!(
+            "mean |2 dy / t^2| of the group centroids over the first {te:.3} s against g |rho_g - rho_w| / (rho_g + rho_w)"
+        ),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_data_is_complete() {
+        let d = martin_moyce();
+        assert_eq!(d.len(), 14);
+        assert_eq!(d[0], (0.41, 1.11));
+    }
+
+    #[test]
+    fn a_perfect_front_has_zero_rms() {
+        let g: f64 = 9.81;
+        let l = 0.146;
+        let scale = (2.0 * g / l).sqrt();
+        let front: Vec<(f64, f64)> = martin_moyce()
+            .iter()
+            .map(|&(t, z)| (t / scale, z * l))
+            .collect();
+        let (rows, rms) = dam_break_front(&front, l, g);
+        assert_eq!(rows.len(), 14);
+        assert!(rms < 1e-12);
+        let shifted: Vec<(f64, f64)> = front.iter().map(|&(t, x)| (t, x + 0.1 * l)).collect();
+        assert!((dam_break_front(&shifted, l, g).1 - 0.1).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,617 @@
+//! The case file: a TOML description of one simulation, its validation and overrides.
+//!
+//! Every field is documented in the README's case-file reference. Unknown fields are errors;
+//! every error names the file, the field and the offending value.
+
+use super::overrides::apply_override;
+use super::scheme_spec::SchemeSpec;
+use crate::error::CaseError;
+use crate::linalg::SolverKind;
+use serde::Deserialize;
+use std::path::Path;
+
+/// A complete simulation case.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    /// Short name, used for the default output folder.
+    pub name: String,
+    /// Free text describing the case.
+    #[serde(default)]
+    pub description: String,
+    /// Number of space dimensions (2; 3 is reserved for the 3D instantiation).
+    #[serde(default = "default_dimension")]
+    pub dimension: usize,
+    /// The box particles must stay in (a particle leaving it is a breakdown).
+    pub domain: DomainSpec,
+    /// Particle spacing and kernel radii.
+    pub particles: ParticleSpec,
+    /// Body forces.
+    #[serde(default)]
+    pub physics: PhysicsSpec,
+    /// Time stepping.
+    pub time: TimeSpec,
+    /// Numerical scheme (a named preset plus overrides).
+    #[serde(default)]
+    pub scheme: SchemeSpec,
+    /// Pressure solver.
+    #[serde(default)]
+    pub solver: SolverSpec,
+    /// Output settings.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// Materials.
+    pub phases: Vec<PhaseSpec>,
+    /// Fluid regions, filled on the particle lattice in order.
+    #[serde(default)]
+    pub fluid: Vec<FluidSpec>,
+    /// Solid walls; wall and dummy layers are generated from them.
+    #[serde(default)]
+    pub walls: Vec<WallSpec>,
+    /// Points where pressure is sampled every step.
+    #[serde(default)]
+    pub probes: Vec<ProbeSpec>,
+    /// When a run counts as broken down.
+    #[serde(default)]
+    pub breakdown: BreakdownSpec,
+    /// Optional comparison against reference data written by the run.
+    #[serde(default)]
+    pub validation: Option<ValidationSpec>,
+}
+
+fn default_dimension() -> usize {
+    2
+}
+
+/// The simulation box.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DomainSpec {
+    /// Lower corner (m).
+    pub min: Vec<f64>,
+    /// Upper corner (m).
+    pub max: Vec<f64>,
+}
+
+/// Particle spacing and kernel radii.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticleSpec {
+    /// Initial particle spacing `l0` (m).
+    pub spacing: f64,
+    /// Radius of number density, gradient and free-surface test, in units of `l0`.
+    #[serde(default = "default_re_grad")]
+    pub re_grad: f64,
+    /// Radius of the Laplacian and the PPE, in units of `l0`.
+    #[serde(default = "default_re_lap")]
+    pub re_lap: f64,
+    /// Number of dummy layers behind the wall layer (default: enough for a full neighbourhood).
+    #[serde(default)]
+    pub dummy_layers: Option<usize>,
+}
+
+fn default_re_grad() -> f64 {
+    2.1
+}
+fn default_re_lap() -> f64 {
+    3.1
+}
+
+/// Body forces.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhysicsSpec {
+    /// Gravitational acceleration (m/s^2).
+    #[serde(default = "default_gravity")]
+    pub gravity: Vec<f64>,
+}
+
+impl Default for PhysicsSpec {
+    fn default() -> Self {
+        PhysicsSpec {
+            gravity: default_gravity(),
+        }
+    }
+}
+
+fn default_gravity() -> Vec<f64> {
+    vec![0.0, -9.81]
+}
+
+/// Time stepping.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    /// End time (s).
+    pub end: f64,
+    /// Courant number `C` in `dt <= C l0 / u_max`.
+    #[serde(default = "default_courant")]
+    pub courant: f64,
+    /// Largest time step (s); default `C sqrt(l0/g)` with gravity.
+    #[serde(default)]
+    pub dt_max: Option<f64>,
+    /// A fixed time step (s), overriding the Courant limit.
+    #[serde(default)]
+    pub dt_fixed: Option<f64>,
+    /// Stop after this many steps (optional).
+    #[serde(default)]
+    pub max_steps: Option<u64>,
+}
+
+fn default_courant() -> f64 {
+    0.1
+}
+
+/// Pressure solver settings.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    /// Which solver.
+    #[serde(default = "default_solver")]
+    pub kind: SolverKind,
+    /// Relative residual tolerance.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Iteration limit; not converging within it is a breakdown.
+    #[serde(default = "default_max_iter")]
+    pub max_iterations: usize,
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        SolverSpec {
+            kind: default_solver(),
+            tolerance: default_tolerance(),
+            max_iterations: default_max_iter(),
+        }
+    }
+}
+
+fn default_solver() -> SolverKind {
+    SolverKind::Auto
+}
+fn default_tolerance() -> f64 {
+    1e-8
+}
+fn default_max_iter() -> usize {
+    5000
+}
+
+/// Output settings.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Interval between output steps (s); 0 writes only the first and last state.
+    #[serde(default = "default_interval")]
+    pub interval: f64,
+    /// Write VTU particle files (and the `.pvd` index).
+    #[serde(default = "default_true")]
+    pub vtu: bool,
+    /// Write `checkpoint.bin` (the full state, for restart) at every output step.
+    #[serde(default = "default_true")]
+    pub checkpoint: bool,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        OutputSpec {
+            interval: default_interval(),
+            vtu: true,
+            checkpoint: true,
+        }
+    }
+}
+
+fn default_interval() -> f64 {
+    0.05
+}
+fn default_true() -> bool {
+    true
+}
+
+/// A material.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseSpec {
+    /// Name used by regions.
+    pub name: String,
+    /// Density (kg/m^3).
+    pub density: f64,
+    /// Kinematic viscosity (m^2/s).
+    #[serde(default)]
+    pub viscosity: f64,
+}
+
+/// A geometric shape.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// Axis-aligned box between two corners (m).
+    Rectangle {
+        /// Lower corner (m).
+        min: Vec<f64>,
+        /// Upper corner (m).
+        max: Vec<f64>,
+    },
+    /// Disc of a centre and radius (m).
+    Circle {
+        /// Centre (m).
+        center: Vec<f64>,
+        /// Radius (m).
+        radius: f64,
+    },
+    /// Closed polygon through points (m), 2D.
+    Polygon {
+        /// Vertices (m).
+        points: Vec<Vec<f64>>,
+    },
+    /// Band of half-width `thickness` around a polyline (m), 2D; walls only.
+    Polyline {
+        /// Vertices (m).
+        points: Vec<Vec<f64>>,
+        /// Distance from the line within which lattice points are solid (m).
+        thickness: f64,
+    },
+    /// The walls of a box whose inside is `min..max` (m), layers generated outward; walls only.
+    Tank {
+        /// Inner lower corner (m).
+        min: Vec<f64>,
+        /// Inner upper corner (m).
+        max: Vec<f64>,
+        /// Leave the top open (default true).
+        #[serde(default = "default_true")]
+        open_top: bool,
+    },
+}
+
+/// Initial velocity of a fluid region.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum VelocitySpec {
+    /// The same velocity everywhere (m/s).
+    Uniform {
+        /// Velocity (m/s).
+        value: Vec<f64>,
+    },
+    /// Solid-body rotation about `center` (m) at `omega` (rad/s, counter-clockwise positive).
+    Rotation {
+        /// Centre of rotation (m).
+        center: Vec<f64>,
+        /// Angular velocity (rad/s), counter-clockwise positive.
+        omega: f64,
+    },
+    /// Affine field `u = u0 + A (x - x0)`.
+    Affine {
+        /// Velocity at `x0` (m/s).
+        u0: Vec<f64>,
+        /// Reference point (m).
+        x0: Vec<f64>,
+        /// Velocity gradient rows (1/s).
+        a: Vec<Vec<f64>>,
+    },
+}
+
+/// Initial pressure of a fluid region: a built-in analytic field.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum PressureSpec {
+    /// Constant pressure (Pa).
+    Uniform {
+        /// Pressure (Pa).
+        value: f64,
+    },
+    /// `p = offset + rho |g| (surface - y)`: hydrostatic below height `surface` (m), plus
+    /// `offset` (Pa), the weight of any layers above (e.g. a lighter layer on a heavy one).
+    Hydrostatic {
+        /// Height of this layer's top, the free surface for a single layer (m).
+        surface: f64,
+        /// Pressure at `surface` (Pa), default 0.
+        #[serde(default)]
+        offset: f64,
+        /// Density of the column above (kg/m^3); default the region's own phase density
+        /// (set it to the surrounding fluid's for a group immersed in another phase).
+        #[serde(default)]
+        density: Option<f64>,
+    },
+    /// Exact pressure of a rotating square patch (cases.md): `lap p = 2 rho omega^2`, 0 on edges.
+    SquarePatch {
+        /// Centre of the square (m).
+        center: Vec<f64>,
+        /// Side length (m).
+        side: f64,
+        /// Angular velocity (rad/s).
+        omega: f64,
+    },
+}
+
+/// A fluid region.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FluidSpec {
+    /// Name of its phase.
+    pub phase: String,
+    /// Its shape.
+    pub shape: ShapeSpec,
+    /// Initial velocity (default at rest).
+    #[serde(default)]
+    pub velocity: Option<VelocitySpec>,
+    /// Initial pressure (default zero).
+    #[serde(default)]
+    pub pressure: Option<PressureSpec>,
+    /// Replace particles of earlier regions where they overlap (otherwise overlap is an error).
+    #[serde(default)]
+    pub overrides: bool,
+    /// Group label for diagnostics (e.g. settling groups).
+    #[serde(default)]
+    pub group: Option<String>,
+}
+
+/// A solid wall region.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallSpec {
+    /// Its shape.
+    pub shape: ShapeSpec,
+}
+
+/// A pressure probe.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    /// Name (CSV column).
+    pub name: String,
+    /// Location (m).
+    pub position: Vec<f64>,
+}
+
+/// Breakdown criteria (cases.md, "Breakdown").
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BreakdownSpec {
+    /// Interpenetration: a pair closer than this fraction of `l0`.
+    #[serde(default = "default_min_pair")]
+    pub min_pair_distance: f64,
+    /// Largest allowed speed (m/s); default 50 x the case velocity scale.
+    #[serde(default)]
+    pub max_speed: Option<f64>,
+    /// Smallest allowed time step as a fraction of the largest.
+    #[serde(default = "default_min_dt_ratio")]
+    pub min_dt_ratio: f64,
+}
+
+impl Default for BreakdownSpec {
+    fn default() -> Self {
+        BreakdownSpec {
+            min_pair_distance: default_min_pair(),
+            max_speed: None,
+            min_dt_ratio: default_min_dt_ratio(),
+        }
+    }
+}
+
+fn default_min_pair() -> f64 {
+    0.3
+}
+fn default_min_dt_ratio() -> f64 {
+    1e-3
+}
+
+/// A comparison against reference data, written by the run.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ValidationSpec {
+    /// Dam-break front against Martin & Moyce (1952): `Z = front/L` against `T = t sqrt(2g/L)`.
+    DamBreak {
+        /// Initial column width `L` (m); the front is measured from the left wall at `x = wall_x`.
+        column_width: f64,
+        /// x of the wall the column stands against (m).
+        #[serde(default)]
+        wall_x: f64,
+    },
+    /// Bottom pressure of still water against `rho g H` (or a given reference).
+    Hydrostatic {
+        /// Water depth `H` (m).
+        depth: f64,
+        /// Reference bottom pressure (Pa); default `rho g H` with the first phase's density.
+        #[serde(default)]
+        reference: Option<f64>,
+        /// Probe name that samples the bottom pressure.
+        probe: String,
+        /// Averaging window at the end of the run (s).
+        #[serde(default = "default_window")]
+        window: f64,
+    },
+    /// Settling or surfacing groups: heavier groups must reach the bottom, lighter ones the
+    /// free surface; their early acceleration is compared with `g |rho_g - rho_w| /
+    /// (rho_g + rho_w)` (a circle in unbounded fluid, cases.md), rho_w the first phase's.
+    Groups {
+        /// Height of the tank bottom (m).
+        bottom: f64,
+        /// Height of the initial free surface (m).
+        surface: f64,
+        /// A group has arrived when its centroid is this close to its target (m).
+        #[serde(default = "default_group_distance")]
+        distance: f64,
+        /// Window for the early acceleration, from rest (s).
+        #[serde(default = "default_early_time")]
+        early_time: f64,
+    },
+}
+
+fn default_window() -> f64 {
+    1.0
+}
+
+fn default_group_distance() -> f64 {
+    0.03
+}
+
+fn default_early_time() -> f64 {
+    0.05
+}
+
+impl Case {
+    /// Reads and validates a case file, applying `key=value` overrides first.
+    pub fn from_file(path: &Path, overrides: &[(String, String)]) -> Result<Case, CaseError> {
+        let label = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| CaseError::new(&label, "", "", format!("cannot read case file: {e}")))?;
+        Case::from_str_named(&text, &label, overrides)
+    }
+
+    /// Parses and validates case text; `label` names its source in errors.
+    pub fn from_str_named(
+        text: &str,
+        label: &str,
+        overrides: &[(String, String)],
+    ) -> Result<Case, CaseError> {
+        let err = |field: &str, value: &str, message: String| {
+            CaseError::new(label, field, value, message)
+        };
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| format!("line {}: ", text[..s.start].lines().count().max(1)))
+                .unwrap_or_default();
+            err("", "", format!("{line}{}", e.message().trim()))
+        })?;
+        for (k, v) in overrides {
+            apply_override(&mut table, k, v).map_err(|m| err(k, v, m))?;
+        }
+        let case: Case =
+            serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
+                let field = dotted_path(&e.path().to_string());
+                let msg = e.inner().message().trim().to_string();
+                // Locate the field in the source when possible.
+                let line = locate_field(text, &msg)
+                    .map(|l| format!(" (line {l})"))
+                    .unwrap_or_default();
+                err(&field, "", format!("{msg}{line}"))
+            })?;
+        case.validate(label)?;
+        Ok(case)
+    }
+
+    /// Index of the phase called `name`.
+    pub fn phase_index(&self, name: &str) -> Option<usize> {
+        self.phases.iter().position(|p| p.name == name)
+    }
+}
+
+/// Finds the line of the first back-quoted name in a serde message within the TOML text.
+fn locate_field(text: &str, msg: &str) -> Option<usize> {
+    let start = msg.find('`')? + 1;
+    let end = start + msg[start..].find('`')?;
+    let name = &msg[start..end];
+    text.lines()
+        .position(|l| {
+            let t = l.trim_start();
+            t.starts_with(name) && t[name.len()..].trim_start().starts_with(['=', '.'])
+        })
+        .map(|l| l + 1)
+}
+
+/// `phases[0].density` (serde's path) as `phases.0.density` (the `--set` form).
+fn dotted_path(path: &str) -> String {
+    if path == "." {
+        return String::new();
+    }
+    path.replace('[', ".").replace(']', "")
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A minimal valid case: a water block in a 1 m box, no walls.
+    pub(crate) const MINIMAL: &str = r#"
+name = "t"
+[domain]
+min = [0.0, 0.0]
+max = [1.0, 1.0]
+[particles]
+spacing = 0.05
+[time]
+end = 0.1
+[[phases]]
+name = "water"
+density = 1000.0
+[[fluid]]
+phase = "water"
+shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
+"#;
+
+    #[test]
+    fn minimal_case_parses() {
+        let c = Case::from_str_named(MINIMAL, "t.toml", &[]).unwrap();
+        assert_eq!(c.particles.re_lap, 3.1);
+        assert_eq!(c.scheme.name, "MPS");
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let text = MINIMAL.replace("spacing = 0.05", "spacing = 0.05\nspacin = 1");
+        let e = Case::from_str_named(&text, "t.toml", &[]).unwrap_err();
+        let s = e.to_string();
+        assert!(s.contains("t.toml") && s.contains("spacin"), "{s}");
+        assert!(!s.contains('\n'));
+    }
+
+    #[test]
+    fn negative_spacing_is_named_with_its_value() {
+        let e = Case::from_str_named(
+            MINIMAL,
+            "t.toml",
+            &[("particles.spacing".into(), "-0.01".into())],
+        )
+        .unwrap_err();
+        assert_eq!(e.field, "particles.spacing");
+        assert_eq!(e.value, "-0.01");
+    }
+
+    #[test]
+    fn region_outside_domain_is_an_error() {
+        let text = MINIMAL.replace("max = [0.5, 0.5]", "max = [1.5, 0.5]");
+        let e = Case::from_str_named(&text, "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "fluid.0.shape");
+    }
+
+    #[test]
+    fn override_sets_nested_and_indexed_fields() {
+        let c = Case::from_str_named(
+            MINIMAL,
+            "t.toml",
+            &[
+                ("time.end".into(), "0.5".into()),
+                ("fluid.0.phase".into(), "water".into()),
+                ("scheme.name".into(), "MPS-HS-GC-DS".into()),
+            ],
+        )
+        .unwrap();
+        assert_eq!(c.time.end, 0.5);
+        assert_eq!(c.scheme.name, "MPS-HS-GC-DS");
+    }
+
+    #[test]
+    fn a_missing_field_is_named_with_its_full_path() {
+        let text = MINIMAL.replace("density = 1000.0", "");
+        let e = Case::from_str_named(&text, "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "phases.0", "{e}");
+        assert!(e.message.contains("density"), "{e}");
+        let e = Case::from_str_named(
+            MINIMAL,
+            "t.toml",
+            &[("particles.spacing".into(), "abc".into())],
+        )
+        .unwrap_err();
+        assert_eq!(e.field, "particles.spacing", "{e}");
+    }
+
+    #[test]
+    fn unknown_phase_is_named() {
+        let e = Case::from_str_named(MINIMAL, "t.toml", &[("fluid.0.phase".into(), "oil".into())])
+            .unwrap_err();
+        assert_eq!(e.field, "fluid.0.phase");
+        assert_eq!(e.value, "\"oil\"");
+    }
+}

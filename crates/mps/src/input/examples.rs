@@ -1,0 +1,45 @@
+//! Built-in example cases (the files under `cases/`, compiled in).
+
+/// (name, one-line description, case text) of every built-in example.
+pub const EXAMPLES: &[(&str, &str, &str)] = &[
+    (
+        "dam_break",
+        "Dam break (Koshizuka & Oka 1996) against Martin & Moyce (1952)",
+        include_str!("../../cases/dam_break.toml"),
+    ),
+    (
+        "hydrostatic",
+        "Still water in a tank: bottom pressure against rho g H",
+        include_str!("../../cases/hydrostatic.toml"),
+    ),
+    (
+        "square_patch",
+        "Rotating square patch of the seed paper (MPS-HS-GC-DS, no gravity, no walls)",
+        include_str!("../../cases/square_patch.toml"),
+    ),
+    (
+        "two_layer",
+        "Still two-layer tank (2650 under 1000 kg/m^3) that must stay at rest",
+        include_str!("../../cases/two_layer.toml"),
+    ),
+    (
+        "settling",
+        "Settling of heavier fluid groups in water (seed paper 3.2.1)",
+        include_str!("../../cases/settling.toml"),
+    ),
+    (
+        "surfacing",
+        "Surfacing of lighter fluid groups in water (seed paper 3.2.2)",
+        include_str!("../../cases/surfacing.toml"),
+    ),
+    (
+        "bench_dam_break",
+        "Benchmark: 1.0 x 0.6 m tank, l0 = 5 mm, fixed dt, 1000 steps, no output",
+        include_str!("../../cases/bench_dam_break.toml"),
+    ),
+];
+
+/// The case text of example `name`.
+pub fn example(name: &str) -> Option<&'static str> {
+    EXAMPLES.iter().find(|e| e.0 == name).map(|e| e.2)
+}

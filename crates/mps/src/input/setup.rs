@@ -1,0 +1,348 @@
+//! Set-up: particles from the case's shapes on a lattice of spacing `l0`, with wall and dummy
+//! layers generated from solid regions.
+//!
+//! Lattice sites sit at `(k + 1/2) l0` along each axis, so a region from 0 to `H` holds sites
+//! from `l0/2` to `H - l0/2`. Solid sites are classified by their lattice (Chebyshev) distance
+//! to the nearest free site inside the domain: 1 = wall layer, 2..=1+dummy_layers = dummy,
+//! deeper sites are dropped.
+
+use super::analytic::square_patch_pressure;
+use super::case::{Case, FluidSpec, PressureSpec, ShapeSpec, VelocitySpec};
+use super::shapes::{inside, shape_bounds, to_vec};
+use crate::error::CaseError;
+use crate::numerics::kernel::for_each_lattice_offset;
+use crate::particles::{Kind, NewParticle, Particles, Vector, NONE};
+use std::collections::{BTreeMap, HashMap, HashSet};
+
+type Site<const D: usize> = [i64; D];
+
+fn site_position<const D: usize>(s: &Site<D>, l0: f64) -> Vector<D> {
+    let mut v = Vector::zero();
+    for k in 0..D {
+        v[k] = (s[k] as f64 + 0.5) * l0;
+    }
+    v
+}
+
+/// Lattice sites inside a shape.
+fn sites_of<const D: usize>(shape: &ShapeSpec, l0: f64, wall_depth: f64) -> Vec<Site<D>> {
+    let (lo, hi) = shape_bounds(shape);
+    let pad = if matches!(shape, ShapeSpec::Tank { .. }) {
+        wall_depth
+    } else {
+        0.0
+    };
+    let mut klo = [0i64; D];
+    let mut khi = [0i64; D];
+    for k in 0..D {
+        klo[k] = ((lo[k] - pad) / l0 - 0.5).floor() as i64 - 1;
+        khi[k] = ((hi[k] + pad) / l0 - 0.5).ceil() as i64 + 1;
+    }
+    let mut out = Vec::new();
+    let mut s = klo;
+    loop {
+        if inside(shape, &site_position(&s, l0), wall_depth) {
+            out.push(s);
+        }
+        let mut k = 0;
+        loop {
+            if k == D {
+                return out;
+            }
+            s[k] += 1;
+            if s[k] <= khi[k] {
+                break;
+            }
+            s[k] = klo[k];
+            k += 1;
+        }
+    }
+}
+
+/// The lattice layers of a case's walls: spacing, wall + dummy layers, domain box.
+struct Lattice<const D: usize> {
+    l0: f64,
+    layers: i64,
+    wall_depth: f64,
+    dmin: Vector<D>,
+    dmax: Vector<D>,
+}
+
+impl<const D: usize> Lattice<D> {
+    fn of(case: &Case) -> Self {
+        let l0 = case.particles.spacing;
+        let re_max = case.particles.re_grad.max(case.particles.re_lap);
+        // Default: enough dummy layers for a full neighbourhood of every wall particle.
+        let dummy_layers = case
+            .particles
+            .dummy_layers
+            .unwrap_or(((re_max - 1e-9).ceil() as usize).saturating_sub(1).max(1));
+        let layers = 1 + dummy_layers as i64;
+        Lattice {
+            l0,
+            layers,
+            wall_depth: layers as f64 * l0,
+            dmin: to_vec(&case.domain.min),
+            dmax: to_vec(&case.domain.max),
+        }
+    }
+
+    fn in_domain(&self, s: &Site<D>) -> bool {
+        let x = site_position(s, self.l0);
+        (0..D).all(|k| x[k] > self.dmin[k] && x[k] < self.dmax[k])
+    }
+
+    /// Lattice (Chebyshev) distance from solid site `s` to the nearest free site inside the
+    /// domain, up to the number of layers; `None` beyond.
+    fn depth(&self, s: &Site<D>, solid: &HashSet<Site<D>>) -> Option<i64> {
+        (1..=self.layers).find(|&m| {
+            let mut found = false;
+            for_each_lattice_offset::<D>(m, |off| {
+                let cheb = off.0.iter().fold(0.0f64, |a, &c| a.max(c.abs())) as i64;
+                if found || cheb != m {
+                    return;
+                }
+                let t = shifted(s, &off);
+                found = !solid.contains(&t) && self.in_domain(&t);
+            });
+            found
+        })
+    }
+}
+
+fn shifted<const D: usize>(s: &Site<D>, off: &Vector<D>) -> Site<D> {
+    let mut t = *s;
+    for k in 0..D {
+        t[k] += off[k] as i64;
+    }
+    t
+}
+
+/// Fluid sites, region by region (later regions may override earlier ones); the BTreeMap
+/// keeps a deterministic order.
+fn fluid_sites<const D: usize>(
+    case: &Case,
+    lat: &Lattice<D>,
+    solid: &HashSet<Site<D>>,
+    label: &str,
+) -> Result<BTreeMap<Site<D>, usize>, CaseError> {
+    let l0 = lat.l0;
+    let mut fluid: BTreeMap<Site<D>, usize> = BTreeMap::new();
+    for (r, f) in case.fluid.iter().enumerate() {
+        let field = format!("fluid.{r}.shape");
+        let sites = sites_of::<D>(&f.shape, l0, lat.wall_depth);
+        if sites.is_empty() {
+            let msg = format!("region holds no particle at spacing {l0}");
+            return Err(CaseError::new(label, field, "", msg));
+        }
+        for s in sites {
+            let at = format!("{:?}", site_position(&s, l0).0);
+            if solid.contains(&s) {
+                return Err(CaseError::new(
+                    label,
+                    field,
+                    at,
+                    "fluid region overlaps a wall",
+                ));
+            }
+            if let Some(&prev) = fluid.get(&s) {
+                if !f.overrides {
+                    let msg =
+                        format!("overlaps fluid.{prev}; set `overrides = true` to replace it");
+                    return Err(CaseError::new(label, field, at, msg));
+                }
+            }
+            fluid.insert(s, r);
+        }
+    }
+    Ok(fluid)
+}
+
+/// Initial velocity (m/s) of region `f` at `x` (m).
+fn initial_velocity<const D: usize>(f: &FluidSpec, x: Vector<D>) -> Vector<D> {
+    match &f.velocity {
+        None => Vector::zero(),
+        Some(VelocitySpec::Uniform { value }) => to_vec(value),
+        Some(VelocitySpec::Rotation { center, omega }) => {
+            let rel = x - to_vec::<D>(center);
+            let mut u = Vector::zero();
+            u[0] = -omega * rel[1];
+            u[1] = omega * rel[0];
+            u
+        }
+        Some(VelocitySpec::Affine { u0, x0, a }) => {
+            let rel = x - to_vec::<D>(x0);
+            let mut u = to_vec::<D>(u0);
+            for (row, arow) in a.iter().enumerate() {
+                for c in 0..D {
+                    u[row] += arow[c] * rel[c];
+                }
+            }
+            u
+        }
+    }
+}
+
+/// Initial pressure (Pa) of region `f` of density `rho` (kg/m^3) at `x` (m).
+fn initial_pressure<const D: usize>(f: &FluidSpec, x: Vector<D>, rho: f64, g: f64) -> f64 {
+    match &f.pressure {
+        None => 0.0,
+        Some(PressureSpec::Uniform { value }) => *value,
+        Some(PressureSpec::Hydrostatic {
+            surface,
+            offset,
+            density,
+        }) => offset + density.unwrap_or(rho) * g * (surface - x[D - 1]).max(0.0),
+        Some(PressureSpec::SquarePatch {
+            center,
+            side,
+            omega,
+        }) => {
+            let c = to_vec::<D>(center);
+            let xp = x[0] - (c[0] - side / 2.0);
+            let yp = x[1] - (c[1] - side / 2.0);
+            square_patch_pressure(xp, yp, *side, rho, *omega, 60)
+        }
+    }
+}
+
+/// Builds the particles of a case. The fluid comes first, then walls, then dummies.
+pub fn build_particles<const D: usize>(
+    case: &Case,
+    label: &str,
+) -> Result<Particles<D>, CaseError> {
+    let lat = Lattice::<D>::of(case);
+    let l0 = lat.l0;
+    let solid: HashSet<Site<D>> = case
+        .walls
+        .iter()
+        .flat_map(|w| sites_of::<D>(&w.shape, l0, lat.wall_depth))
+        .collect();
+    let fluid = fluid_sites(case, &lat, &solid, label)?;
+
+    // Solid sites by lattice distance to the nearest free site: 1 = wall, deeper = dummy.
+    let mut solid_sites: Vec<Site<D>> = solid.iter().copied().collect();
+    solid_sites.sort();
+    let (mut walls, mut dummies) = (Vec::new(), Vec::new());
+    for s in solid_sites {
+        match lat.depth(&s, &solid) {
+            Some(1) => walls.push(s),
+            Some(_) => dummies.push(s),
+            None => {}
+        }
+    }
+
+    let mut p = Particles::<D>::default();
+    let g = to_vec::<D>(&case.physics.gravity).norm();
+    let groups = group_names(case);
+    for (s, &r) in &fluid {
+        let f = &case.fluid[r];
+        let ph = case.phase_index(&f.phase).expect("validated phase");
+        let rho = case.phases[ph].density;
+        let x = site_position(s, l0);
+        p.push(NewParticle {
+            position: x,
+            velocity: initial_velocity(f, x),
+            kind: Kind::Fluid,
+            phase: ph as u16,
+            density: rho,
+        });
+        let i = p.len() - 1;
+        p.pressure[i] = initial_pressure(f, x, rho, g);
+        if let Some(name) = &f.group {
+            p.group[i] = groups.iter().position(|n| n == name).expect("listed") as u16;
+        }
+    }
+    let solid_particle = |x: Vector<D>, kind: Kind| NewParticle {
+        position: x,
+        velocity: Vector::zero(),
+        kind,
+        phase: 0,
+        density: case.phases[0].density,
+    };
+    let mut wall_index: HashMap<Site<D>, u32> = HashMap::new();
+    for s in &walls {
+        wall_index.insert(*s, p.len() as u32);
+        p.push(solid_particle(site_position(s, l0), Kind::Wall));
+    }
+    for s in &dummies {
+        let x = site_position(s, l0);
+        p.push(solid_particle(x, Kind::Dummy));
+        // Backing wall: the nearest wall site (ties: first in offset order).
+        let mut best = (f64::MAX, NONE);
+        for_each_lattice_offset::<D>(lat.layers, |off| {
+            let t = shifted(s, &off);
+            if let Some(&w) = wall_index.get(&t) {
+                let d = (site_position(&t, l0) - x).norm2();
+                if d < best.0 - 1e-12 * l0 * l0 {
+                    best = (d, w);
+                }
+            }
+        });
+        let i = p.len() - 1;
+        p.backing_wall[i] = best.1;
+    }
+    Ok(p)
+}
+
+/// Names of the fluid groups in order of their group index.
+pub fn group_names(case: &Case) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for f in &case.fluid {
+        if let Some(g) = &f.group {
+            if !names.contains(g) {
+                names.push(g.clone());
+            }
+        }
+    }
+    names
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tank 0.2 m x 0.3 m, 10 cm of water, l0 = 1 cm, and `extra` case text.
+    fn tank_case(extra: &str) -> Case {
+        let text = crate::input::case::tests::MINIMAL
+            .replace("max = [1.0, 1.0]", "max = [0.2, 0.3]")
+            .replace("spacing = 0.05", "spacing = 0.01")
+            .replace("max = [0.5, 0.5] }", "max = [0.2, 0.1] }")
+            + "[[walls]]\nshape = { type = \"tank\", min = [0.0, 0.0], max = [0.2, 0.3] }\n"
+            + extra;
+        Case::from_str_named(&text, "tank.toml", &[]).unwrap()
+    }
+
+    #[test]
+    fn tank_gets_one_wall_layer_and_dummies() {
+        let c = tank_case("");
+        let p = build_particles::<2>(&c, "tank.toml").unwrap();
+        assert_eq!(p.count(Kind::Fluid), 20 * 10);
+        // Wall layer: bottom 20 + 2 corners + two sides of 30 each.
+        assert_eq!(p.count(Kind::Wall), 20 + 2 + 2 * 30);
+        // re_lap = 3.1 -> 3 dummy layers, so every wall particle has a full neighbourhood.
+        // Solid band 4 sites thick (28 x 4 bottom + 2 x 4 x 30 sides) less the wall layer.
+        assert_eq!(p.count(Kind::Dummy), 28 * 4 + 2 * 4 * 30 - 82);
+        for i in 0..p.len() {
+            if p.kind[i] == Kind::Dummy {
+                let w = p.backing_wall[i] as usize;
+                assert_eq!(p.kind[w], Kind::Wall);
+                assert!((p.position[w] - p.position[i]).norm() < 4.0 * 0.01 * 1.5);
+            }
+        }
+    }
+
+    #[test]
+    fn overlapping_regions_are_an_error_unless_overriding() {
+        let extra = r#"
+[[fluid]]
+phase = "water"
+shape = { type = "circle", center = [0.1, 0.05], radius = 0.02 }
+"#;
+        let c = tank_case(extra);
+        let e = build_particles::<2>(&c, "tank.toml").unwrap_err();
+        assert_eq!(e.field, "fluid.1.shape");
+        let c = tank_case(&format!("{extra}overrides = true\n"));
+        assert!(build_particles::<2>(&c, "tank.toml").is_ok());
+    }
+}

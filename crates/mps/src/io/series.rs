@@ -1,0 +1,157 @@
+//! CSV time series, appended row by row as a run goes (through the `csv` crate) and flushed
+//! at every output, so the cost of writing grows with the run, not with its square.
+
+use crate::error::{Error, Result};
+use serde::Serialize;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+/// One cell of a row whose columns are only known at run time (probes, groups).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Cell {
+    /// A real number.
+    Real(f64),
+    /// A count.
+    Count(u64),
+}
+
+/// A CSV file rows are appended to.
+pub struct Series {
+    path: PathBuf,
+    writer: csv::Writer<BufWriter<File>>,
+}
+
+impl Series {
+    /// Creates (or truncates) `path`; `header` is written first when given, otherwise the
+    /// first typed row's field names become the header.
+    pub fn create(path: &Path, header: Option<&[String]>) -> Result<Series> {
+        let file = File::create(path).map_err(|e| Error::io(path, e))?;
+        let mut writer = csv::WriterBuilder::new()
+            .has_headers(header.is_none())
+            .from_writer(BufWriter::new(file));
+        if let Some(h) = header {
+            writer.write_record(h).map_err(|e| csv_error(path, e))?;
+        }
+        Ok(Series {
+            path: path.to_path_buf(),
+            writer,
+        })
+    }
+
+    /// Appends one row: a struct (named columns) or a sequence of cells.
+    pub fn push<T: Serialize>(&mut self, row: &T) -> Result<()> {
+        self.writer
+            .serialize(row)
+            .map_err(|e| csv_error(&self.path, e))
+    }
+
+    /// Writes everything appended so far to the file.
+    pub fn flush(&mut self) -> Result<()> {
+        self.writer.flush().map_err(|e| Error::io(&self.path, e))
+    }
+}
+
+fn csv_error(path: &Path, e: csv::Error) -> Error {
+    let message = e.to_string();
+    match e.into_kind() {
+        csv::ErrorKind::Io(io) => Error::io(path, io),
+        _ => Error::Format {
+            path: path.to_path_buf(),
+            message: format!("not a valid CSV file: {message}"),
+        },
+    }
+}
+
+/// Reads a CSV file written by [`Series`] into typed rows.
+pub fn read_rows<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Vec<T>> {
+    let mut r = csv::Reader::from_path(path).map_err(|e| csv_error(path, e))?;
+    r.deserialize()
+        .collect::<std::result::Result<Vec<T>, _>>()
+        .map_err(|e| Error::Format {
+            path: path.to_path_buf(),
+            message: format!("not a valid series: {e}"),
+        })
+}
+
+/// A numeric CSV file as columns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// Column names.
+    pub header: Vec<String>,
+    /// One column of numbers per name.
+    pub columns: Vec<Vec<f64>>,
+}
+
+/// Reads any numeric CSV file: its header and one column of numbers per header field (a cell
+/// that is not a number reads as NaN).
+pub fn read_table(path: &Path) -> Result<Table> {
+    let mut r = csv::Reader::from_path(path).map_err(|e| csv_error(path, e))?;
+    let header: Vec<String> = r
+        .headers()
+        .map_err(|e| csv_error(path, e))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let mut columns = vec![Vec::new(); header.len()];
+    for record in r.records() {
+        let record = record.map_err(|e| csv_error(path, e))?;
+        for (k, col) in columns.iter_mut().enumerate() {
+            col.push(
+                record
+                    .get(k)
+                    .and_then(|v| v.trim().parse().ok())
+                    .unwrap_or(f64::NAN),
+            );
+        }
+    }
+    Ok(Table { header, columns })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Serialize, serde::Deserialize, Debug, PartialEq)]
+    struct Row {
+        time: f64,
+        step: u64,
+    }
+
+    #[test]
+    fn typed_and_free_rows_round_trip() {
+        let dir = std::env::temp_dir().join(format!("mps_series_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let typed = dir.join("typed.csv");
+        let mut s = Series::create(&typed, None).unwrap();
+        s.push(&Row { time: 0.1, step: 1 }).unwrap();
+        s.push(&Row {
+            time: 1e-20,
+            step: 2,
+        })
+        .unwrap();
+        s.flush().unwrap();
+        let back: Vec<Row> = read_rows(&typed).unwrap();
+        assert_eq!(
+            back,
+            vec![
+                Row { time: 0.1, step: 1 },
+                Row {
+                    time: 1e-20,
+                    step: 2
+                }
+            ]
+        );
+        let free = dir.join("free.csv");
+        let header = vec!["time".to_string(), "a".into(), "n".into()];
+        let mut s = Series::create(&free, Some(&header)).unwrap();
+        s.push(&[Cell::Real(0.5), Cell::Real(-2.25), Cell::Count(3)])
+            .unwrap();
+        s.flush().unwrap();
+        let t = read_table(&free).unwrap();
+        assert_eq!(t.header, header);
+        assert_eq!(t.columns, vec![vec![0.5], vec![-2.25], vec![3.0]]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,49 @@
+//! Linear algebra for the pressure Poisson equation: sparse matrices, preconditioned
+//! conjugate gradient, IC(0) and smoothed-aggregation AMG.
+//!
+//! A leaf: knows nothing of particles, kernels or schemes (uses only the leaf `parallel`).
+//! `sparse` is the leaf inside it; `pcg` defines the preconditioner interface that `ic0`
+//! and `amg` implement.
+
+pub mod amg;
+pub mod ic0;
+pub mod pcg;
+pub mod sparse;
+
+pub use amg::{Amg, AmgParams};
+pub use ic0::Ic0;
+pub use pcg::{pcg, Identity, Jacobi, NotConverged, Precondition, SolveStats};
+pub use sparse::CsrMatrix;
+
+use serde::{Deserialize, Serialize};
+
+/// Linear solver choice for the PPE.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolverKind {
+    /// IC(0)-CG below [`AUTO_AMG_UNKNOWNS`] unknowns, AMG-CG from there on.
+    Auto,
+    /// Unpreconditioned conjugate gradient.
+    Cg,
+    /// Jacobi (diagonal) preconditioned CG.
+    JacobiCg,
+    /// Incomplete-Cholesky IC(0) preconditioned CG.
+    Ic0Cg,
+    /// Smoothed-aggregation algebraic multigrid preconditioned CG.
+    AmgCg,
+}
+
+/// PPE size (unknowns) from which `auto` picks AMG-CG over IC(0)-CG: the measured crossover
+/// of their step times on the dam break (docs/decisions.md, "Solver choice").
+pub const AUTO_AMG_UNKNOWNS: usize = 8000;
+
+impl SolverKind {
+    /// The solver `auto` stands for at `unknowns` rows; other kinds are themselves.
+    pub fn for_size(self, unknowns: usize) -> SolverKind {
+        match self {
+            SolverKind::Auto if unknowns >= AUTO_AMG_UNKNOWNS => SolverKind::AmgCg,
+            SolverKind::Auto => SolverKind::Ic0Cg,
+            k => k,
+        }
+    }
+}

@@ -1,0 +1,24 @@
+//! Numerics: the MPS kernel, the one pair loop, the operators, and every model a scheme is
+//! made of (gradient models, PPE source and assembly, free-surface detectors, walls, density
+//! averages, collisions, Dynamic Stabilization), with the paper's presets as data.
+//!
+//! Each file implements one model and cites its equation. May use `particles` and `linalg`
+//! (the PPE is assembled into its sparse matrix); knows nothing of the time loop, case files
+//! or output.
+
+pub mod collision;
+pub mod density;
+pub mod gradient;
+pub mod kernel;
+pub mod operators;
+pub mod pairs;
+pub mod ppe;
+pub mod scheme;
+pub mod source;
+pub mod stabilization;
+pub mod surface;
+pub mod walls;
+
+pub use kernel::{weight, KernelConstants, Kernels};
+pub use pairs::Pair;
+pub use scheme::Scheme;

@@ -1,0 +1,79 @@
+//! The one neighbour-pair loop every pair formula runs over (as PySPH's `Equation.loop`
+//! with its precomputed `XIJ`, `RIJ`, `WIJ`): for particle `i` and a kernel radius `re`, each
+//! neighbour `j` with `0 < r_ij < re` and its geometry.
+//!
+//! Coincident particles (`r_ij = 0`) carry no weight (`w(0) = 0`) and are left out.
+
+use super::kernel::weight;
+use crate::particles::{NeighborList, Vector, View};
+
+/// One neighbour `j` of particle `i`, with the pair geometry precomputed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pair<const D: usize> {
+    /// Index of the neighbour.
+    pub j: usize,
+    /// `r_ij = x_j - x_i` (m).
+    pub xij: Vector<D>,
+    /// `|r_ij|^2` (m^2).
+    pub r2: f64,
+    /// `|r_ij|` (m).
+    pub r: f64,
+    /// `w(|r_ij|)` at the loop's radius (dimensionless, positive).
+    pub w: f64,
+}
+
+/// The neighbours of `i` within `re` (m), from positions `pos` and neighbour list `nl`.
+#[inline]
+pub fn pairs<'a, const D: usize>(
+    pos: &'a [Vector<D>],
+    nl: &'a NeighborList,
+    i: usize,
+    re: f64,
+) -> impl Iterator<Item = Pair<D>> + 'a {
+    let xi = pos[i];
+    nl.of(i).iter().filter_map(move |&j| {
+        let j = j as usize;
+        let xij = pos[j] - xi;
+        let r2 = xij.norm2();
+        let r = r2.sqrt();
+        (r > 0.0 && r < re).then(|| Pair {
+            j,
+            xij,
+            r2,
+            r,
+            w: weight(r, re),
+        })
+    })
+}
+
+impl<const D: usize> View<'_, D> {
+    /// The neighbours of `i` within `re` (m) at the view's positions.
+    #[inline]
+    pub fn pairs(&self, i: usize, re: f64) -> impl Iterator<Item = Pair<D>> + '_ {
+        pairs(self.pos, self.neighbors, i, re)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::particles::neighbors::build_neighbor_list;
+
+    #[test]
+    fn pairs_are_the_neighbours_strictly_inside_the_radius() {
+        let pos = vec![
+            Vector([0.0, 0.0]),
+            Vector([0.5, 0.0]),
+            Vector([0.0, 0.0]),
+            Vector([1.5, 0.0]),
+        ];
+        let nl = build_neighbor_list(&pos, 2.0);
+        let got: Vec<Pair<2>> = pairs(&pos, &nl, 0, 1.0).collect();
+        // The coincident particle 2 and the distant particle 3 are left out.
+        assert_eq!(got.len(), 1);
+        let p = got[0];
+        assert_eq!((p.j, p.r, p.r2), (1, 0.5, 0.25));
+        assert_eq!(p.xij, Vector([0.5, 0.0]));
+        assert_eq!(p.w, weight(0.5, 1.0));
+    }
+}

@@ -1,0 +1,220 @@
+//! Numerical schemes as data: one plain struct of every choice the step reads, and the
+//! paper's four named presets (equations.md section 8). Overrides from a case file are
+//! applied by `input::scheme_spec`.
+
+use super::collision::Collision;
+use super::density::DensityAverage;
+use super::gradient::{GradientDensity, GradientModel};
+use super::source::{DriftControl, HsNormalization, SourceModel};
+use super::stabilization::{DsWeighting, DynamicStabilization};
+use super::surface::number_density::NumberDensity;
+use super::surface::SurfaceDetector;
+use super::walls::WallPressure;
+
+/// A fully resolved scheme.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scheme {
+    /// Preset name it started from.
+    pub name: String,
+    /// Pressure-gradient model.
+    pub gradient: GradientModel,
+    /// Gradient correction (Khayyer & Gotoh 2011).
+    pub gradient_correction: bool,
+    /// GC fallback threshold (fraction of the interior moment-matrix determinant).
+    pub gc_min_determinant: f64,
+    /// PPE source.
+    pub source: SourceModel,
+    /// HS normalisation.
+    pub hs_normalization: HsNormalization,
+    /// Relaxation coefficient on the PND source (dimensionless).
+    pub pnd_relaxation: f64,
+    /// Drift control.
+    pub drift: DriftControl,
+    /// Drift coefficient `gamma` (dimensionless).
+    pub gamma: f64,
+    /// Clamp negative pressure to zero.
+    pub clamp_negative_pressure: bool,
+    /// Free-surface detector.
+    pub surface: SurfaceDetector,
+    /// Wall particles take the free-surface test (walls open to the air are Dirichlet).
+    pub wall_surface_test: bool,
+    /// PPE rows count their missing neighbourhood as air at p = 0.
+    pub air_ghosts: bool,
+    /// Pair density average.
+    pub density_average: DensityAverage,
+    /// Density in the gradient.
+    pub gradient_density: GradientDensity,
+    /// Smoothed density in the PPE coefficient and the gradient.
+    pub density_smoothing: bool,
+    /// Wall and dummy pressure model.
+    pub wall_pressure: WallPressure,
+    /// Artificial compressibility (1/Pa).
+    pub compressibility: f64,
+    /// Collision model, if on.
+    pub collision: Option<Collision>,
+    /// Dynamic Stabilization, if on.
+    pub ds: Option<DynamicStabilization>,
+}
+
+/// One of the paper's named schemes: the choices that distinguish it (equations.md s.8).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Preset {
+    /// Name in case files.
+    pub name: &'static str,
+    /// Pressure-gradient model.
+    pub gradient: GradientModel,
+    /// Gradient correction.
+    pub gradient_correction: bool,
+    /// PPE source.
+    pub source: SourceModel,
+    /// Dynamic Stabilization.
+    pub ds: bool,
+    /// Collision model.
+    pub collision: bool,
+    /// Clamp negative pressure.
+    pub clamp_negative_pressure: bool,
+}
+
+/// The paper's presets (equations.md section 8).
+pub const PRESETS: [Preset; 4] = [
+    Preset {
+        name: "MPS",
+        gradient: GradientModel::Original,
+        gradient_correction: false,
+        source: SourceModel::Pnd,
+        ds: false,
+        collision: true,
+        clamp_negative_pressure: true,
+    },
+    Preset {
+        name: "CMPS-HS",
+        gradient: GradientModel::Cmps,
+        gradient_correction: false,
+        source: SourceModel::Hs,
+        ds: false,
+        collision: false,
+        clamp_negative_pressure: false,
+    },
+    Preset {
+        name: "MPS-HS-GC",
+        gradient: GradientModel::Taylor,
+        gradient_correction: true,
+        source: SourceModel::Hs,
+        ds: false,
+        collision: false,
+        clamp_negative_pressure: false,
+    },
+    Preset {
+        name: "MPS-HS-GC-DS",
+        gradient: GradientModel::Taylor,
+        gradient_correction: true,
+        source: SourceModel::Hs,
+        ds: true,
+        collision: false,
+        clamp_negative_pressure: false,
+    },
+];
+
+/// Defaults of the parts the presets share (sources in docs/decisions.md).
+pub mod defaults {
+    /// Drift coefficient `gamma` (Tanaka & Masunaga 2010 use 0.01-0.05).
+    pub const GAMMA: f64 = 0.01;
+    /// Relaxation of the PND source: 0.2 as in Koshizuka's reference MPS code
+    /// (docs/decisions.md, "PND relaxation").
+    pub const PND_RELAXATION: f64 = 0.2;
+    /// GC fallback threshold (docs/decisions.md, "GC fallback").
+    pub const GC_MIN_DETERMINANT: f64 = 0.2;
+    /// Collision distance, fraction of l0 (Koshizuka's reference MPS code).
+    pub const COLLISION_ALPHA: f64 = 0.5;
+    /// Collision restitution coefficient (Koshizuka's reference MPS code).
+    pub const COLLISION_RESTITUTION: f64 = 0.2;
+    /// DS threshold `alpha_DS` with a fixed time step (paper Eq. 9 at Courant 0.1).
+    pub const DS_ALPHA: f64 = 0.9;
+}
+
+impl Preset {
+    /// The preset called `name`.
+    pub fn named(name: &str) -> Option<&'static Preset> {
+        PRESETS.iter().find(|p| p.name == name)
+    }
+
+    /// The scheme of this preset with every shared part at its default.
+    pub fn scheme(&self) -> Scheme {
+        let hs = self.source == SourceModel::Hs;
+        Scheme {
+            name: self.name.to_string(),
+            gradient: self.gradient,
+            gradient_correction: self.gradient_correction,
+            gc_min_determinant: defaults::GC_MIN_DETERMINANT,
+            source: self.source,
+            hs_normalization: HsNormalization::Consistent,
+            pnd_relaxation: defaults::PND_RELAXATION,
+            drift: if hs {
+                DriftControl::Gamma
+            } else {
+                DriftControl::None
+            },
+            gamma: defaults::GAMMA,
+            clamp_negative_pressure: self.clamp_negative_pressure,
+            surface: SurfaceDetector::NumberDensity(NumberDensity::default()),
+            // Both on for the HS presets, off for plain MPS: docs/decisions.md, "Wall surface
+            // test" and "Air ghosts" (departures from the paper).
+            wall_surface_test: hs,
+            air_ghosts: hs,
+            density_average: DensityAverage::Arithmetic,
+            gradient_density: GradientDensity::Pair,
+            density_smoothing: false,
+            wall_pressure: WallPressure::Extrapolated,
+            compressibility: 0.0,
+            collision: self.collision.then_some(Collision {
+                alpha: defaults::COLLISION_ALPHA,
+                restitution: defaults::COLLISION_RESTITUTION,
+            }),
+            ds: self.ds.then_some(DynamicStabilization {
+                alpha: defaults::DS_ALPHA,
+                weighting: DsWeighting::Kernel,
+                walls: true,
+            }),
+        }
+    }
+}
+
+impl Scheme {
+    /// The preset called `name` with its defaults, if there is one.
+    pub fn preset(name: &str) -> Option<Scheme> {
+        Preset::named(name).map(Preset::scheme)
+    }
+
+    /// Pair density `rho_ij` (kg/m^3) by the chosen average.
+    #[inline]
+    pub fn pair_density(&self, a: f64, b: f64) -> f64 {
+        self.density_average.of(a, b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_follow_the_design_table() {
+        let m = Scheme::preset("MPS").unwrap();
+        assert_eq!(
+            (m.gradient, m.source, m.gradient_correction, m.ds.is_some()),
+            (GradientModel::Original, SourceModel::Pnd, false, false)
+        );
+        assert!(m.collision.is_some() && m.clamp_negative_pressure);
+        let c = Scheme::preset("CMPS-HS").unwrap();
+        assert_eq!(
+            (c.gradient, c.source),
+            (GradientModel::Cmps, SourceModel::Hs)
+        );
+        let g = Scheme::preset("MPS-HS-GC").unwrap();
+        assert!(g.gradient_correction && g.ds.is_none() && g.gradient == GradientModel::Taylor);
+        let d = Scheme::preset("MPS-HS-GC-DS").unwrap();
+        assert!(d.gradient_correction && d.ds.is_some() && d.collision.is_none());
+        assert_eq!(d.drift, DriftControl::Gamma);
+        assert_eq!(d.ds.unwrap().alpha, 0.9);
+        assert!(Scheme::preset("SPH").is_none());
+    }
+}

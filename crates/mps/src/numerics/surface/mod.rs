@@ -1,0 +1,122 @@
+//! Free-surface detection: which particles are on the free surface (Dirichlet `p = 0` in the
+//! PPE). Detectors are models as data: each is one file here implementing [`Detector`], and
+//! one line in the [`surface_detectors!`] registration below makes it selectable in case files
+//! (`[scheme.surface] detector = "<name>"`, its parameters beside it).
+
+use super::kernel::Kernels;
+use crate::particles::{Kind, NeighborList, Vector};
+use rayon::prelude::*;
+use std::fmt;
+
+/// What a detector sees: positions, neighbours, number densities and kernels.
+#[derive(Clone, Copy)]
+pub struct SurfaceInput<'a, const D: usize> {
+    /// Positions (m).
+    pub pos: &'a [Vector<D>],
+    /// Neighbour lists.
+    pub neighbors: &'a NeighborList,
+    /// Number density at re_grad (dimensionless).
+    pub number_density: &'a [f64],
+    /// Kernel constants and spacing.
+    pub kernels: &'a Kernels,
+}
+
+/// A free-surface detector.
+pub trait Detector: Sized + Clone + PartialEq + fmt::Debug {
+    /// Its name in case files.
+    const NAME: &'static str;
+    /// Builds it from the parameters of `[scheme.surface]` (without `detector`); the error
+    /// names the parameter.
+    fn from_params(params: &toml::Table) -> Result<Self, ParamError>;
+    /// True when particle `i` is on the free surface.
+    fn is_surface<const D: usize>(&self, i: usize, s: &SurfaceInput<D>) -> bool;
+}
+
+/// A bad detector parameter: (parameter, value, message).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamError(pub String, pub String, pub String);
+
+/// Reads a detector's parameter struct from its table (unknown keys are errors).
+pub fn parse_params<P: serde::de::DeserializeOwned>(params: &toml::Table) -> Result<P, ParamError> {
+    P::deserialize(toml::Value::Table(params.clone())).map_err(|e| {
+        let msg = e.message().trim().replace('\n', " ");
+        let key = msg
+            .split('`')
+            .nth(1)
+            .map(str::to_string)
+            .unwrap_or_default();
+        ParamError(key, String::new(), msg)
+    })
+}
+
+/// Registers detectors: `module::Type` per line, one file each.
+macro_rules! surface_detectors {
+    ($($module:ident :: $ty:ident),* $(,)?) => {
+        $(pub mod $module;)*
+
+        /// A configured free-surface detector, one of the registered ones.
+        #[derive(Clone, Debug, PartialEq)]
+        pub enum SurfaceDetector {
+            $(
+                #[doc = concat!("See [`", stringify!($module), "`].")]
+                $ty($module::$ty),
+            )*
+        }
+
+        impl SurfaceDetector {
+            /// Names of the registered detectors.
+            pub const NAMES: &'static [&'static str] = &[$(<$module::$ty as Detector>::NAME),*];
+
+            /// The detector called `name` with its parameters; `None` for an unknown name.
+            pub fn from_params(name: &str, params: &toml::Table) -> Option<Result<Self, ParamError>> {
+                $(
+                    if name == <$module::$ty as Detector>::NAME {
+                        return Some($module::$ty::from_params(params).map(SurfaceDetector::$ty));
+                    }
+                )*
+                None
+            }
+
+            /// Its name in case files.
+            pub fn name(&self) -> &'static str {
+                match self {
+                    $(SurfaceDetector::$ty(_) => <$module::$ty as Detector>::NAME,)*
+                }
+            }
+
+            /// True when particle `i` is on the free surface.
+            #[inline]
+            pub fn is_surface<const D: usize>(&self, i: usize, s: &SurfaceInput<D>) -> bool {
+                match self {
+                    $(SurfaceDetector::$ty(d) => d.is_surface(i, s),)*
+                }
+            }
+        }
+    };
+}
+
+surface_detectors! {
+    number_density::NumberDensity,
+    distribution::Distribution,
+}
+
+/// Free-surface flags of every particle: fluid particles, and wall particles when
+/// `test_walls` (walls open to the air), take the detector's test; dummies never do.
+pub fn detect<const D: usize>(
+    detector: &SurfaceDetector,
+    s: &SurfaceInput<D>,
+    kind: &[Kind],
+    test_walls: bool,
+) -> Vec<bool> {
+    (0..s.pos.len())
+        .into_par_iter()
+        .map(|i| {
+            let tested = match kind[i] {
+                Kind::Fluid => true,
+                Kind::Wall => test_walls,
+                Kind::Dummy => false,
+            };
+            tested && detector.is_surface(i, s)
+        })
+        .collect()
+}

@@ -1,0 +1,403 @@
+//! The particle state as structure-of-arrays, every field declared once.
+//!
+//! The table in [`particle_fields!`] below is the only place a particle array is named: the
+//! struct, `push`, `permute`, the length check after a checkpoint is read, the VTU columns
+//! and the VTU reader all follow from it (as SPlisHSPlasH's field registry does). A new field
+//! is one line there.
+
+use super::vector::Vector;
+use serde::{Deserialize, Serialize};
+
+/// What a particle is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[repr(u8)]
+pub enum Kind {
+    /// A fluid particle: moves, carries pressure.
+    #[default]
+    Fluid = 0,
+    /// The wall layer next to the fluid: fixed, carries pressure (a PPE unknown).
+    Wall = 1,
+    /// Dummy layers behind the wall: fixed, only complete the number density.
+    Dummy = 2,
+}
+
+/// Marker for "no index" in `u32` index arrays.
+pub const NONE: u32 = u32::MAX;
+
+/// Marker for particles outside any named group.
+pub const NO_GROUP: u16 = u16::MAX;
+
+/// Where a field goes in a VTU file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Vtu {
+    /// The point coordinates (`<Points>`).
+    Points,
+    /// A point-data array of this name.
+    Data(&'static str),
+    /// Not written (internal bookkeeping, restored from checkpoints only).
+    Internal,
+}
+
+/// One VTU column of a particle field: its VTK type, components and raw little-endian bytes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Column {
+    /// Array name (`Points` for the coordinates).
+    pub name: &'static str,
+    /// VTK type name (`Float64`, `Int32`, `UInt8`).
+    pub vtk_type: &'static str,
+    /// Components per particle.
+    pub components: usize,
+    /// The values, little-endian.
+    pub bytes: Vec<u8>,
+}
+
+/// How one element type is stored in a VTU column and read back from its values.
+pub trait ColumnValue: Sized + Copy {
+    /// VTK type name.
+    const VTK_TYPE: &'static str;
+    /// Components per particle in the file.
+    const COMPONENTS: usize;
+    /// Appends the value's components, little-endian.
+    fn put(&self, out: &mut Vec<u8>);
+    /// The value from its components as read back (numbers); `None` when out of range.
+    fn from_components(c: &[f64]) -> Option<Self>;
+}
+
+impl ColumnValue for f64 {
+    const VTK_TYPE: &'static str = "Float64";
+    const COMPONENTS: usize = 1;
+    fn put(&self, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.to_le_bytes());
+    }
+    fn from_components(c: &[f64]) -> Option<Self> {
+        c.first().copied()
+    }
+}
+
+/// Vectors are written with three components (VTK's convention), zero-padded in 2D.
+impl<const D: usize> ColumnValue for Vector<D> {
+    const VTK_TYPE: &'static str = "Float64";
+    const COMPONENTS: usize = 3;
+    fn put(&self, out: &mut Vec<u8>) {
+        for k in 0..3 {
+            let v = if k < D { self.0[k] } else { 0.0 };
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    fn from_components(c: &[f64]) -> Option<Self> {
+        Vector::from_slice(c.get(..D)?)
+    }
+}
+
+/// Integers that fit an `Int32` column.
+macro_rules! int_column {
+    ($($t:ty),*) => {$(
+        impl ColumnValue for $t {
+            const VTK_TYPE: &'static str = "Int32";
+            const COMPONENTS: usize = 1;
+            fn put(&self, out: &mut Vec<u8>) {
+                out.extend_from_slice(&(*self as i32).to_le_bytes());
+            }
+            fn from_components(c: &[f64]) -> Option<Self> {
+                let v = *c.first()?;
+                (v >= <$t>::MIN as f64 && v <= <$t>::MAX as f64 && v.fract() == 0.0)
+                    .then_some(v as $t)
+            }
+        }
+    )*};
+}
+int_column!(u16, u32);
+
+impl ColumnValue for Kind {
+    const VTK_TYPE: &'static str = "Int32";
+    const COMPONENTS: usize = 1;
+    fn put(&self, out: &mut Vec<u8>) {
+        out.extend_from_slice(&(*self as i32).to_le_bytes());
+    }
+    fn from_components(c: &[f64]) -> Option<Self> {
+        match *c.first()? as i64 {
+            0 => Some(Kind::Fluid),
+            1 => Some(Kind::Wall),
+            2 => Some(Kind::Dummy),
+            _ => None,
+        }
+    }
+}
+
+impl ColumnValue for bool {
+    const VTK_TYPE: &'static str = "UInt8";
+    const COMPONENTS: usize = 1;
+    fn put(&self, out: &mut Vec<u8>) {
+        out.push(*self as u8);
+    }
+    fn from_components(c: &[f64]) -> Option<Self> {
+        Some(*c.first()? != 0.0)
+    }
+}
+
+/// A new particle: the values `push` takes; every other field starts at its default.
+#[derive(Clone, Copy, Debug)]
+pub struct NewParticle<const D: usize> {
+    /// Position (m).
+    pub position: Vector<D>,
+    /// Velocity (m/s).
+    pub velocity: Vector<D>,
+    /// Fluid, wall or dummy.
+    pub kind: Kind,
+    /// Phase index.
+    pub phase: u16,
+    /// Density (kg/m^3).
+    pub density: f64,
+}
+
+/// Declares the particle fields: `name: type = initial value (from the new particle and its
+/// index) => VTU placement`, and `, particle_index` for fields that hold particle indices
+/// (remapped when the particles are reordered).
+macro_rules! particle_fields {
+    (|$new:ident, $index:ident| $(
+        $(#[doc = $doc:expr])*
+        $name:ident : $ty:ty = $init:expr => $vtu:expr $(, $remap:ident)?;
+    )*) => {
+        /// All particles of a simulation, one array per quantity (see the module comment).
+        #[derive(Clone, Debug, Default, Serialize, Deserialize)]
+        pub struct Particles<const D: usize> {
+            $( $(#[doc = $doc])* pub $name: Vec<$ty>, )*
+        }
+
+        impl<const D: usize> Particles<D> {
+            /// Names of every field, in declaration order.
+            pub const FIELD_NAMES: &'static [&'static str] = &[$(stringify!($name)),*];
+
+            /// Appends one particle; fields other than those of `new` take their initial value.
+            pub fn push(&mut self, $new: NewParticle<D>) {
+                let $index = self.position.len() as u32;
+                $( self.$name.push($init); )*
+            }
+
+            /// Reorders every array by `order` (new index -> old index); index fields are
+            /// remapped to the new numbering.
+            pub fn permute(&mut self, order: &[u32]) {
+                let mut inverse = vec![0u32; order.len()];
+                for (new, &old) in order.iter().enumerate() {
+                    inverse[old as usize] = new as u32;
+                }
+                $(
+                    self.$name = order.iter().map(|&o| self.$name[o as usize]).collect();
+                    $( stringify!($remap); remap_indices(&mut self.$name, &inverse); )?
+                )*
+            }
+
+            /// The first field whose length differs from the particle count, if any.
+            pub fn inconsistent_field(&self) -> Option<&'static str> {
+                let n = self.len();
+                $( if self.$name.len() != n { return Some(stringify!($name)); } )*
+                None
+            }
+
+            /// The VTU columns of every written field.
+            pub fn columns(&self) -> Vec<Column> {
+                let mut out = Vec::new();
+                $( if let Some(c) = column(&self.$name, $vtu) { out.push(c); } )*
+                out
+            }
+
+            /// Fills the fields from VTU arrays (`(name, values)`, `Points` for the
+            /// coordinates). Fields without an array keep their initial value; a missing
+            /// `Points` array, a wrong length or a value out of range is an error.
+            pub fn from_columns(arrays: &[(String, Vec<f64>)]) -> Result<Self, String> {
+                let pts = arrays
+                    .iter()
+                    .find(|a| a.0 == "Points")
+                    .ok_or("no Points array")?;
+                let n = pts.1.len() / 3;
+                let mut p = Particles::<D>::default();
+                for k in 0..n {
+                    p.push(NewParticle {
+                        position: Vector::zero(),
+                        velocity: Vector::zero(),
+                        kind: Kind::Fluid,
+                        phase: 0,
+                        density: 0.0,
+                    });
+                    p.id[k] = k as u32;
+                }
+                $( read_column(&mut p.$name, $vtu, arrays)?; )*
+                Ok(p)
+            }
+        }
+    };
+}
+
+/// Replaces each particle index `v` (not [`NONE`]) by `inverse[v]`.
+fn remap_indices(v: &mut [u32], inverse: &[u32]) {
+    for x in v {
+        if *x != NONE {
+            *x = inverse[*x as usize];
+        }
+    }
+}
+
+fn column<T: ColumnValue>(values: &[T], vtu: Vtu) -> Option<Column> {
+    let name = match vtu {
+        Vtu::Points => "Points",
+        Vtu::Data(name) => name,
+        Vtu::Internal => return None,
+    };
+    let mut bytes = Vec::with_capacity(values.len() * T::COMPONENTS * 8);
+    for v in values {
+        v.put(&mut bytes);
+    }
+    Some(Column {
+        name,
+        vtk_type: T::VTK_TYPE,
+        components: T::COMPONENTS,
+        bytes,
+    })
+}
+
+fn read_column<T: ColumnValue>(
+    out: &mut [T],
+    vtu: Vtu,
+    arrays: &[(String, Vec<f64>)],
+) -> Result<(), String> {
+    let name = match vtu {
+        Vtu::Points => "Points",
+        Vtu::Data(name) => name,
+        Vtu::Internal => return Ok(()),
+    };
+    let Some((_, values)) = arrays.iter().find(|a| a.0 == name) else {
+        return Ok(());
+    };
+    if values.len() != out.len() * T::COMPONENTS {
+        return Err(format!(
+            "array `{name}` has {} values, expected {} x {}",
+            values.len(),
+            out.len(),
+            T::COMPONENTS
+        ));
+    }
+    for (k, c) in values.chunks_exact(T::COMPONENTS).enumerate() {
+        out[k] = T::from_components(c)
+            .ok_or_else(|| format!("array `{name}`: value {c:?} of particle {k} out of range"))?;
+    }
+    Ok(())
+}
+
+particle_fields! { |new, index|
+    /// Stable particle id, kept through reordering.
+    id: u32 = index => Vtu::Data("id");
+    /// Position (m).
+    position: Vector<D> = new.position => Vtu::Points;
+    /// Velocity (m/s).
+    velocity: Vector<D> = new.velocity => Vtu::Data("velocity");
+    /// Pressure (Pa).
+    pressure: f64 = 0.0 => Vtu::Data("pressure");
+    /// Density (kg/m^3); wall and dummy particles take the density of the fluid beside them.
+    density: f64 = new.density => Vtu::Data("density");
+    /// Phase index into the case's phase table.
+    phase: u16 = new.phase => Vtu::Data("phase");
+    /// Fluid (0), wall (1) or dummy (2).
+    kind: Kind = new.kind => Vtu::Data("kind");
+    /// Free-surface flag (Dirichlet `p = 0` in the PPE).
+    free_surface: bool = false => Vtu::Data("free_surface");
+    /// Particle number density at `re_grad` (dimensionless).
+    number_density: f64 = 0.0 => Vtu::Data("number_density");
+    /// For dummy particles: index of the wall particle that backs it (pressure extrapolation).
+    backing_wall: u32 = NONE => Vtu::Internal, particle_index;
+    /// Fluid group for diagnostics (`NO_GROUP` when the region has none).
+    group: u16 = NO_GROUP => Vtu::Internal;
+}
+
+impl<const D: usize> Particles<D> {
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+    /// True when there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+    /// Number of particles of a kind.
+    pub fn count(&self, kind: Kind) -> usize {
+        self.kind.iter().filter(|&&k| k == kind).count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two() -> Particles<2> {
+        let mut p = Particles::<2>::default();
+        for (k, kind) in [Kind::Fluid, Kind::Wall, Kind::Dummy]
+            .into_iter()
+            .enumerate()
+        {
+            p.push(NewParticle {
+                position: Vector([k as f64, 0.5]),
+                velocity: Vector([1.0, -1.0]),
+                kind,
+                phase: 0,
+                density: 1000.0,
+            });
+        }
+        p.backing_wall[2] = 1;
+        p
+    }
+
+    #[test]
+    fn permute_moves_every_field_and_remaps_indices() {
+        let mut p = two();
+        p.permute(&[2, 0, 1]);
+        assert_eq!(p.id, vec![2, 0, 1]);
+        assert_eq!(p.kind, vec![Kind::Dummy, Kind::Fluid, Kind::Wall]);
+        // The dummy (now first) is backed by the wall, now at index 2.
+        assert_eq!(p.backing_wall[0], 2);
+        assert_eq!(p.inconsistent_field(), None);
+    }
+
+    #[test]
+    fn columns_read_back_into_the_same_fields() {
+        let mut p = two();
+        p.pressure = vec![12.5, -3.0, 0.0];
+        p.free_surface[0] = true;
+        let arrays: Vec<(String, Vec<f64>)> = p
+            .columns()
+            .iter()
+            .map(|c| {
+                let vals = match c.vtk_type {
+                    "Float64" => c
+                        .bytes
+                        .chunks(8)
+                        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+                        .collect(),
+                    "Int32" => c
+                        .bytes
+                        .chunks(4)
+                        .map(|b| i32::from_le_bytes(b.try_into().unwrap()) as f64)
+                        .collect(),
+                    _ => c.bytes.iter().map(|&b| b as f64).collect(),
+                };
+                (c.name.to_string(), vals)
+            })
+            .collect();
+        let q = Particles::<2>::from_columns(&arrays).unwrap();
+        assert_eq!(q.position, p.position);
+        assert_eq!(q.velocity, p.velocity);
+        assert_eq!(q.pressure, p.pressure);
+        assert_eq!(q.kind, p.kind);
+        assert_eq!(q.free_surface, p.free_surface);
+        // Internal fields are not written: they come back at their initial value.
+        assert_eq!(q.backing_wall, vec![NONE; 3]);
+    }
+
+    #[test]
+    fn a_short_array_is_an_error() {
+        let arrays = vec![
+            ("Points".to_string(), vec![0.0; 6]),
+            ("pressure".to_string(), vec![1.0]),
+        ];
+        let e = Particles::<2>::from_columns(&arrays).unwrap_err();
+        assert!(e.contains("pressure"), "{e}");
+    }
+}

@@ -1,0 +1,214 @@
+//! Neighbour search with a uniform cell list, and particle reordering along the cells.
+//!
+//! Each particle's neighbour list is stored in one flat array (CSR layout). The list is built
+//! with a cut-off slightly larger than the largest kernel radius (a "skin"), so it stays valid
+//! while particles move less than half the skin; every operator filters by its own radius.
+
+use super::vector::Vector;
+use rayon::prelude::*;
+
+/// Neighbour lists of all particles in CSR layout.
+#[derive(Clone, Debug, Default)]
+pub struct NeighborList {
+    /// `offsets[i]..offsets[i+1]` indexes `indices` for particle `i`.
+    pub offsets: Vec<u32>,
+    /// Neighbour indices, grouped by particle.
+    pub indices: Vec<u32>,
+    /// Cut-off radius used to build the list (m).
+    pub cutoff: f64,
+}
+
+impl NeighborList {
+    /// The neighbours of particle `i`.
+    #[inline]
+    pub fn of(&self, i: usize) -> &[u32] {
+        &self.indices[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+    /// Total number of (directed) neighbour pairs.
+    pub fn pairs(&self) -> usize {
+        self.indices.len()
+    }
+}
+
+/// A uniform grid of cells of side `cell` covering the particles' bounding box.
+#[derive(Clone, Debug)]
+pub struct CellGrid<const D: usize> {
+    origin: Vector<D>,
+    cell: f64,
+    dims: [usize; D],
+    /// `start[c]..start[c+1]` indexes `sorted` for cell `c`.
+    start: Vec<u32>,
+    /// Particle indices sorted by cell.
+    sorted: Vec<u32>,
+}
+
+impl<const D: usize> CellGrid<D> {
+    /// Bins the points into cells of side `cell` (m).
+    pub fn build(points: &[Vector<D>], cell: f64) -> Self {
+        let (mut lo, mut hi) = (Vector([f64::MAX; D]), Vector([f64::MIN; D]));
+        for p in points {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        if points.is_empty() {
+            lo = Vector::zero();
+            hi = Vector::zero();
+        }
+        let mut dims = [1usize; D];
+        for k in 0..D {
+            dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize + 1).max(1);
+        }
+        let mut grid = CellGrid {
+            origin: lo,
+            cell,
+            dims,
+            start: Vec::new(),
+            sorted: Vec::new(),
+        };
+        let ncell: usize = dims.iter().product();
+        let keys: Vec<u32> = points.par_iter().map(|p| grid.cell_of(p) as u32).collect();
+        let mut count = vec![0u32; ncell + 1];
+        for &k in &keys {
+            count[k as usize + 1] += 1;
+        }
+        for c in 0..ncell {
+            count[c + 1] += count[c];
+        }
+        let mut fill = count.clone();
+        let mut sorted = vec![0u32; points.len()];
+        for (i, &k) in keys.iter().enumerate() {
+            sorted[fill[k as usize] as usize] = i as u32;
+            fill[k as usize] += 1;
+        }
+        grid.start = count;
+        grid.sorted = sorted;
+        grid
+    }
+
+    #[inline]
+    fn coords_of(&self, p: &Vector<D>) -> [i64; D] {
+        let mut c = [0i64; D];
+        for k in 0..D {
+            c[k] = ((p[k] - self.origin[k]) / self.cell).floor() as i64;
+        }
+        c
+    }
+
+    #[inline]
+    fn linear(&self, c: &[i64; D]) -> Option<usize> {
+        let mut idx = 0usize;
+        for k in (0..D).rev() {
+            if c[k] < 0 || c[k] >= self.dims[k] as i64 {
+                return None;
+            }
+            idx = idx * self.dims[k] + c[k] as usize;
+        }
+        Some(idx)
+    }
+
+    #[inline]
+    fn cell_of(&self, p: &Vector<D>) -> usize {
+        let mut c = self.coords_of(p);
+        for k in 0..D {
+            c[k] = c[k].clamp(0, self.dims[k] as i64 - 1);
+        }
+        self.linear(&c).unwrap_or(0)
+    }
+
+    /// Particle indices in cell order (the order used for memory locality).
+    pub fn cell_order(&self) -> &[u32] {
+        &self.sorted
+    }
+
+    /// Calls `f(j)` for every point index in the 3^D cells around `p` (candidates only).
+    #[inline]
+    pub fn for_each_candidate(&self, p: &Vector<D>, mut f: impl FnMut(u32)) {
+        let c = self.coords_of(p);
+        let total = 3usize.pow(D as u32);
+        for n in 0..total {
+            let mut rem = n;
+            let mut cc = c;
+            for item in cc.iter_mut() {
+                *item += (rem % 3) as i64 - 1;
+                rem /= 3;
+            }
+            if let Some(l) = self.linear(&cc) {
+                for &j in &self.sorted[self.start[l] as usize..self.start[l + 1] as usize] {
+                    f(j);
+                }
+            }
+        }
+    }
+}
+
+/// Builds the neighbour lists of all points within `cutoff` (m), excluding the point itself.
+/// The result is independent of the number of threads.
+pub fn build_neighbor_list<const D: usize>(points: &[Vector<D>], cutoff: f64) -> NeighborList {
+    let grid = CellGrid::build(points, cutoff);
+    let n = points.len();
+    let c2 = cutoff * cutoff;
+    const CHUNK: usize = 512;
+    let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
+            let mut counts = Vec::with_capacity(b - a);
+            let mut list = Vec::with_capacity((b - a) * 40);
+            for i in a..b {
+                let pi = points[i];
+                let before = list.len();
+                grid.for_each_candidate(&pi, |j| {
+                    if j as usize != i && (points[j as usize] - pi).norm2() < c2 {
+                        list.push(j);
+                    }
+                });
+                counts.push((list.len() - before) as u32);
+            }
+            (counts, list)
+        })
+        .collect();
+    let (counts, lists): (Vec<Vec<u32>>, Vec<Vec<u32>>) = chunks.into_iter().unzip();
+    let offsets = crate::parallel::offsets(&counts);
+    let indices = crate::parallel::concat(&lists);
+    NeighborList {
+        offsets,
+        indices,
+        cutoff,
+    }
+}
+
+/// The order (new index -> old index) that sorts points along the cells of side `cell` (m).
+pub fn locality_order<const D: usize>(points: &[Vector<D>], cell: f64) -> Vec<u32> {
+    CellGrid::build(points, cell).cell_order().to_vec()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cell_list_finds_the_same_pairs_as_brute_force() {
+        let mut pts = Vec::new();
+        let mut s = 12345u64;
+        for _ in 0..500 {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let x = (s >> 11) as f64 / (1u64 << 53) as f64;
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let y = (s >> 11) as f64 / (1u64 << 53) as f64;
+            pts.push(Vector([x, y * 0.5]));
+        }
+        let nl = build_neighbor_list(&pts, 0.07);
+        for i in 0..pts.len() {
+            let mut got: Vec<u32> = nl.of(i).to_vec();
+            got.sort();
+            let want: Vec<u32> = (0..pts.len() as u32)
+                .filter(|&j| j as usize != i && (pts[j as usize] - pts[i]).norm() < 0.07)
+                .collect();
+            assert_eq!(got, want, "particle {i}");
+        }
+    }
+}

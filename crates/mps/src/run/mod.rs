@@ -1,0 +1,330 @@
+//! The run loop: steps a simulation to its end time, hands every output to the
+//! [`Recorder`] (VTU + PVD snapshots, metrics, step, probe, group and front series,
+//! checkpoints), runs the validations at the end and writes the run summary; on breakdown it
+//! writes the last good state and the breakdown record.
+
+pub mod recorder;
+
+use crate::analysis::groups::{group_states, GroupState};
+use crate::analysis::metrics::Metrics;
+use crate::analysis::validation::{dam_break, early_acceleration, hydrostatic, ValidationResult};
+use crate::analysis::{GroupSummary, RunSummary};
+use crate::error::{IoContext, Result};
+use crate::input::case::ValidationSpec;
+use crate::io::write_atomic;
+use crate::particles::Kind;
+use crate::simulation::{Breakdown, Simulation, StepReport};
+use recorder::Recorder;
+use std::path::Path;
+use std::time::Instant;
+
+/// Progress of a run, passed to the observer after every step.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// Simulated time (s).
+    pub time: f64,
+    /// End time (s).
+    pub end: f64,
+    /// Steps taken.
+    pub step: u64,
+    /// Last step's report.
+    pub report: StepReport,
+    /// Wall-clock seconds since the run started.
+    pub elapsed: f64,
+}
+
+/// Receives progress of a run (the CLI draws a progress bar or logs lines).
+pub trait Observer {
+    /// Called after every step.
+    fn on_step(&mut self, _p: &Progress) {}
+    /// Called with a one-line message (outputs written, breakdown).
+    fn on_message(&mut self, _m: &str) {}
+    /// Called after each VTU snapshot is written (its index and path).
+    fn on_snapshot(&mut self, _index: usize, _path: &Path) {}
+}
+
+/// An observer that ignores everything.
+pub struct Silent;
+impl Observer for Silent {}
+
+/// What the loop gathers over the steps for the summary.
+struct Totals {
+    iterations: u64,
+    min_pair_l0: f64,
+    breakdown: Option<Breakdown>,
+    wall_seconds: f64,
+}
+
+/// One output, and the observer told of its snapshot.
+fn output<const D: usize>(
+    rec: &mut Recorder<D>,
+    sim: &Simulation<D>,
+    observer: &mut dyn Observer,
+) -> Result<()> {
+    let index = rec.outputs;
+    if let Some(path) = rec.output(sim)? {
+        observer.on_snapshot(index, &path);
+    }
+    Ok(())
+}
+
+/// Steps to the end time, writing outputs at the first step past each output time
+/// (shortening steps to land on them would kick PND-type sources, whose pressure scales as
+/// `1/dt^2`); only the last step is shortened to end exactly at the end time.
+fn step_loop<const D: usize>(
+    sim: &mut Simulation<D>,
+    rec: &mut Recorder<D>,
+    observer: &mut dyn Observer,
+) -> Result<Totals> {
+    let start = Instant::now();
+    let end = sim.case.time.end;
+    let interval = sim.case.output.interval;
+    // The next output time after the current one (a restarted run continues the sequence).
+    let mut next_out = if interval > 0.0 {
+        ((sim.time / interval + 1e-9).floor() + 1.0) * interval
+    } else {
+        end
+    };
+    let max_steps = sim.case.time.max_steps.unwrap_or(u64::MAX);
+    let eps = 1e-9 * end;
+    let mut t = Totals {
+        iterations: 0,
+        min_pair_l0: f64::INFINITY,
+        breakdown: None,
+        wall_seconds: 0.0,
+    };
+    let mut last_output_step = sim.step_count;
+    while sim.time < end - eps && sim.step_count < max_steps {
+        let r = match sim.step(end) {
+            Ok(r) => r,
+            Err(b) => {
+                observer.on_message(&b.to_string());
+                t.breakdown = Some(b);
+                break;
+            }
+        };
+        t.iterations += r.solve.iterations as u64;
+        t.min_pair_l0 = t.min_pair_l0.min(r.min_pair_distance / sim.l0());
+        rec.step(sim, &r)?;
+        rec.sample(sim)?;
+        if sim.time >= next_out - eps && sim.time < end - eps {
+            output(rec, sim, observer)?;
+            // The checkpoint holds no solver set-up: drop it here too, so a run restarted
+            // from this checkpoint continues bit-identically.
+            sim.reset_solver_cache();
+            last_output_step = sim.step_count;
+            while next_out <= sim.time + eps {
+                next_out += interval;
+            }
+        }
+        observer.on_step(&Progress {
+            time: sim.time,
+            end,
+            step: sim.step_count,
+            report: r,
+            elapsed: start.elapsed().as_secs_f64(),
+        });
+    }
+    t.wall_seconds = start.elapsed().as_secs_f64();
+    if let Some(b) = &t.breakdown {
+        rec.snapshot(sim, "breakdown_last_good_state.vtu")?;
+        rec.metrics_row(sim)?;
+        write_breakdown(b, rec.out_dir())?;
+    } else if sim.step_count != last_output_step || rec.outputs == 1 {
+        output(rec, sim, observer)?;
+    }
+    rec.flush()?;
+    Ok(t)
+}
+
+/// `breakdown.toml`: time, step, reason and the particles involved.
+fn write_breakdown(b: &Breakdown, out: &Path) -> Result<()> {
+    let ids: Vec<String> = b.particles.iter().map(|i| i.to_string()).collect();
+    let record = format!(
+        "# The run broke down; the last good state is in breakdown_last_good_state.vtu.\n\
+         time = {:.9}\nstep = {}\nreason = {:?}\nmessage = {:?}\nparticles = [{}]\n",
+        b.time,
+        b.step,
+        format!("{:?}", b.reason),
+        b.to_string(),
+        ids.join(", ")
+    );
+    write_atomic(&out.join("breakdown.toml"), record.as_bytes())
+}
+
+/// Runs `sim` to its end time, writing into `out` (created if missing).
+pub fn run<const D: usize>(
+    sim: &mut Simulation<D>,
+    out: &Path,
+    observer: &mut dyn Observer,
+) -> Result<RunSummary> {
+    std::fs::create_dir_all(out).at(out)?;
+    let front_wall = match &sim.case.validation {
+        Some(ValidationSpec::DamBreak { wall_x, .. }) => Some(*wall_x),
+        _ => None,
+    };
+    let mut rec = Recorder::create(sim, out, front_wall)?;
+    rec.sample(sim)?;
+    output(&mut rec, sim, observer)?;
+    let m0 = Metrics::measure(sim);
+    let groups0 = group_states(sim, rec.group_names.len());
+    let totals = step_loop(sim, &mut rec, observer)?;
+    let validation = validate(sim, &rec, out)?;
+    let summary = summarise(sim, &rec, &totals, &m0, &groups0, validation);
+    write_atomic(&out.join("summary.toml"), summary.to_toml().as_bytes())?;
+    Ok(summary)
+}
+
+/// The case's validation against reference data (and the dam break's comparison file).
+fn validate<const D: usize>(
+    sim: &Simulation<D>,
+    rec: &Recorder<D>,
+    out: &Path,
+) -> Result<Vec<ValidationResult>> {
+    let case = &sim.case;
+    let g = sim.gravity.norm();
+    let rho_w = case.phases[0].density;
+    let result = match &case.validation {
+        Some(ValidationSpec::DamBreak { column_width, .. }) => {
+            let (result, rows) = dam_break(&rec.front_series, *column_width, g, sim.l0());
+            let mut csv = String::from("T,Z_experiment,Z_simulation,difference\n");
+            for (t, ze, zs) in &rows {
+                csv.push_str(&format!("{t:.3},{ze:.3},{zs:.4},{:.4}\n", zs - ze));
+            }
+            write_atomic(&out.join("dam_break_front.csv"), csv.as_bytes())?;
+            Some(result)
+        }
+        Some(ValidationSpec::Hydrostatic {
+            depth,
+            reference,
+            probe,
+            window,
+        }) => {
+            let k = case
+                .probes
+                .iter()
+                .position(|p| &p.name == probe)
+                .expect("validated");
+            let exact = reference.unwrap_or(rho_w * g * depth);
+            hydrostatic(
+                probe,
+                &rec.probe_series[k],
+                *window,
+                exact,
+                reference.is_some(),
+            )
+        }
+        Some(ValidationSpec::Groups { early_time, .. }) => {
+            let densities: Vec<f64> = (0..rec.group_names.len())
+                .map(|k| group_density(sim, k).unwrap_or(rho_w))
+                .collect();
+            early_acceleration(&rec.group_series, *early_time, &densities, rho_w, g)
+        }
+        None => None,
+    };
+    Ok(result.into_iter().collect())
+}
+
+/// The run summary.
+fn summarise<const D: usize>(
+    sim: &Simulation<D>,
+    rec: &Recorder<D>,
+    t: &Totals,
+    m0: &Metrics,
+    groups0: &[GroupState<D>],
+    validation: Vec<ValidationResult>,
+) -> RunSummary {
+    let m1 = Metrics::measure(sim);
+    let total = sim.particles.len();
+    RunSummary {
+        case: sim.case.name.clone(),
+        scheme: sim.scheme.name.clone(),
+        fluid_particles: sim.particles.count(Kind::Fluid),
+        wall_particles: sim.particles.count(Kind::Wall),
+        dummy_particles: sim.particles.count(Kind::Dummy),
+        spacing: sim.l0(),
+        steps: sim.step_count,
+        time: sim.time,
+        end_time: sim.case.time.end,
+        wall_seconds: t.wall_seconds,
+        particle_steps_per_second: total as f64 * sim.step_count as f64 / t.wall_seconds.max(1e-9),
+        mean_ppe_iterations: t.iterations as f64 / sim.step_count.max(1) as f64,
+        solver_fallbacks: sim.solver.fallbacks,
+        breakdown: t.breakdown.as_ref().map(|b| b.to_string()),
+        breakdown_time: t.breakdown.as_ref().map(|b| b.time),
+        validation,
+        stages: sim
+            .timers
+            .stages()
+            .iter()
+            .map(|(n, d)| (n.to_string(), d.as_secs_f64()))
+            .collect(),
+        threads: rayon::current_num_threads(),
+        kinetic_energy: (m0.kinetic_energy, m1.kinetic_energy),
+        angular_momentum: (m0.angular_momentum, m1.angular_momentum),
+        min_pair_distance_l0: t.min_pair_l0,
+        nd_spread_end: m1.nd_spread,
+        rms_speed_end: m1.rms_speed,
+        probes: rec
+            .probe_series
+            .iter()
+            .zip(&sim.case.probes)
+            .map(|(s, p)| (p.name.clone(), s[0].1, s[s.len() - 1].1))
+            .collect(),
+        groups: group_summaries(sim, rec, groups0),
+    }
+}
+
+/// Density of group `k` (kg/m^3): that of its first fluid particle.
+fn group_density<const D: usize>(sim: &Simulation<D>, k: usize) -> Option<f64> {
+    let p = &sim.particles;
+    (0..p.len())
+        .find(|&i| p.group[i] as usize == k && p.kind[i] == Kind::Fluid)
+        .map(|i| p.density[i])
+}
+
+/// Each group's arrival time (heavier groups at the bottom, lighter ones at the free
+/// surface, within the validation distance), strays and centroids.
+fn group_summaries<const D: usize>(
+    sim: &Simulation<D>,
+    rec: &Recorder<D>,
+    start: &[GroupState<D>],
+) -> Vec<GroupSummary> {
+    let end = group_states(sim, rec.group_names.len());
+    let (bottom, surface, distance) = match &sim.case.validation {
+        Some(ValidationSpec::Groups {
+            bottom,
+            surface,
+            distance,
+            ..
+        }) => (Some(*bottom), Some(*surface), *distance),
+        _ => (None, None, 0.0),
+    };
+    let rho_w = sim.case.phases[0].density;
+    rec.group_names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let heavy = group_density(sim, k).unwrap_or(rho_w) > rho_w;
+            let arrived = |y: f64| match (heavy, bottom, surface) {
+                (true, Some(b), _) => y - b <= distance,
+                (false, _, Some(s)) => s - y <= distance,
+                _ => false,
+            };
+            GroupSummary {
+                name: name.clone(),
+                particles: end[k].count,
+                arrival_time: rec
+                    .group_series
+                    .iter()
+                    .find(|s| arrived(s.1[k].1))
+                    .map(|s| s.0),
+                stray_end: end[k].stray,
+                centroid: (
+                    (start[k].centroid[0], start[k].centroid[D - 1]),
+                    (end[k].centroid[0], end[k].centroid[D - 1]),
+                ),
+            }
+        })
+        .collect()
+}

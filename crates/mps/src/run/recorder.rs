@@ -1,0 +1,246 @@
+//! The recorder: one writer per output file of a run, and the series kept in memory for the
+//! validations at the end.
+
+use crate::analysis::groups::{group_states, pressure_noise};
+use crate::analysis::metrics::{front_position, Metrics};
+use crate::error::Result;
+use crate::io::checkpoint::write_checkpoint;
+use crate::io::series::{Cell, Series};
+use crate::io::vtu::{pvd_bytes, vtu_bytes};
+use crate::io::write_atomic;
+use crate::particles::Vector;
+use crate::simulation::{Simulation, StepReport};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// One row of `steps.csv`.
+#[derive(Serialize)]
+struct StepRow {
+    step: u64,
+    time: f64,
+    dt: f64,
+    unknowns: usize,
+    ppe_iterations: usize,
+    ppe_residual: f64,
+    solver_fallback: u8,
+    ds_active: u64,
+    min_pair_distance_l0: f64,
+    close_pairs: u64,
+    max_speed: f64,
+    collisions: u64,
+}
+
+/// The writers of one run folder.
+pub struct Recorder<const D: usize> {
+    out: PathBuf,
+    write_vtu: bool,
+    /// (time, file) of every snapshot written (the `.pvd` index).
+    snapshots: Vec<(f64, String)>,
+    /// Outputs written (the index of the next snapshot).
+    pub outputs: usize,
+    metrics: Series,
+    steps: Series,
+    probes: Option<Series>,
+    groups: Option<Series>,
+    front: Option<Series>,
+    probe_points: Vec<(String, Vector<D>)>,
+    /// Each probe's pressure over time: `(t, p)` (s, Pa).
+    pub probe_series: Vec<Vec<(f64, f64)>>,
+    /// The dam-break front over time, `(t, x - wall_x)` (s, m), when the case measures it.
+    pub front_series: Vec<(f64, f64)>,
+    front_wall: Option<f64>,
+    /// Names of the fluid groups.
+    pub group_names: Vec<String>,
+    /// Per step: time and each group's centroid (x, y).
+    pub group_series: Vec<(f64, Vec<(f64, f64)>)>,
+}
+
+impl<const D: usize> Recorder<D> {
+    /// Opens the writers of a run of `sim` into folder `out`; `front_wall` is the wall x (m)
+    /// the dam-break front is measured from, when the case measures it.
+    pub fn create(sim: &Simulation<D>, out: &Path, front_wall: Option<f64>) -> Result<Self> {
+        let case = &sim.case;
+        let probe_points: Vec<(String, Vector<D>)> = case
+            .probes
+            .iter()
+            .map(|p| {
+                (
+                    p.name.clone(),
+                    Vector::from_slice(&p.position).expect("validated"),
+                )
+            })
+            .collect();
+        let header = |first: &str, rest: Vec<String>| -> Vec<String> {
+            std::iter::once(first.to_string()).chain(rest).collect()
+        };
+        let probes = if probe_points.is_empty() {
+            None
+        } else {
+            let h = header("time", probe_points.iter().map(|p| p.0.clone()).collect());
+            Some(Series::create(&out.join("probes.csv"), Some(&h))?)
+        };
+        let group_names = crate::input::setup::group_names(case);
+        let groups = if group_names.is_empty() {
+            None
+        } else {
+            let mut cols: Vec<String> = group_names
+                .iter()
+                .flat_map(|n| ["x", "y", "speed", "stray"].map(|c| format!("{n}_{c}")))
+                .collect();
+            cols.extend(
+                [
+                    "stray_fraction",
+                    "momentum_x",
+                    "momentum_y",
+                    "pressure_noise",
+                ]
+                .map(String::from),
+            );
+            Some(Series::create(
+                &out.join("groups.csv"),
+                Some(&header("time", cols)),
+            )?)
+        };
+        let front = match front_wall {
+            Some(_) => {
+                let h = header("time", vec!["front".into()]);
+                Some(Series::create(&out.join("front.csv"), Some(&h))?)
+            }
+            None => None,
+        };
+        Ok(Recorder {
+            out: out.to_path_buf(),
+            write_vtu: case.output.vtu,
+            snapshots: Vec::new(),
+            outputs: 0,
+            metrics: Series::create(&out.join("metrics.csv"), None)?,
+            steps: Series::create(&out.join("steps.csv"), None)?,
+            probes,
+            groups,
+            front,
+            probe_series: vec![Vec::new(); probe_points.len()],
+            probe_points,
+            front_series: Vec::new(),
+            front_wall,
+            group_names,
+            group_series: Vec::new(),
+        })
+    }
+
+    /// Writes a VTU snapshot of the current state as `name` and adds it to the `.pvd` index;
+    /// returns its path when one was written.
+    pub fn snapshot(&mut self, sim: &Simulation<D>, name: &str) -> Result<Option<PathBuf>> {
+        if !self.write_vtu {
+            return Ok(None);
+        }
+        let path = self.out.join(name);
+        write_atomic(&path, &vtu_bytes(&sim.particles, sim.time, sim.l0()))?;
+        self.snapshots.push((sim.time, name.to_string()));
+        write_atomic(&self.out.join("particles.pvd"), &pvd_bytes(&self.snapshots))?;
+        Ok(Some(path))
+    }
+
+    /// An output: checkpoint, snapshot, metrics and group rows; every series flushed.
+    /// Returns the snapshot's path when one was written.
+    pub fn output(&mut self, sim: &Simulation<D>) -> Result<Option<PathBuf>> {
+        if sim.case.output.checkpoint {
+            write_checkpoint(sim, &self.out.join("checkpoint.bin"))?;
+        }
+        let path = self.snapshot(sim, &format!("particles_{:06}.vtu", self.outputs))?;
+        self.outputs += 1;
+        let m = Metrics::measure(sim);
+        self.metrics.push(&m)?;
+        if let Some(series) = &mut self.groups {
+            let states = group_states(sim, self.group_names.len());
+            let mut row = vec![Cell::Real(sim.time)];
+            for g in &states {
+                row.extend([
+                    Cell::Real(g.centroid[0]),
+                    Cell::Real(g.centroid[D - 1]),
+                    Cell::Real(g.velocity.norm()),
+                    Cell::Count(g.stray as u64),
+                ]);
+            }
+            let total: usize = states.iter().map(|g| g.count).sum();
+            let stray: usize = states.iter().map(|g| g.stray).sum();
+            row.extend([
+                Cell::Real(stray as f64 / total.max(1) as f64),
+                Cell::Real(m.momentum_x),
+                Cell::Real(m.momentum_y),
+                Cell::Real(pressure_noise(sim)),
+            ]);
+            series.push(&row)?;
+        }
+        self.flush()?;
+        Ok(path)
+    }
+
+    /// The metrics row of a state that is not an output (the last good state of a
+    /// breakdown).
+    pub fn metrics_row(&mut self, sim: &Simulation<D>) -> Result<()> {
+        self.metrics.push(&Metrics::measure(sim))
+    }
+
+    /// What is sampled at every step (and at the start): probes, the front, group centroids.
+    pub fn sample(&mut self, sim: &Simulation<D>) -> Result<()> {
+        if let Some(series) = &mut self.probes {
+            let mut row = vec![sim.time];
+            for (k, (_, x)) in self.probe_points.iter().enumerate() {
+                let v = sim.sample_pressure(x).unwrap_or(f64::NAN);
+                row.push(v);
+                self.probe_series[k].push((sim.time, v));
+            }
+            series.push(&row)?;
+        }
+        if !self.group_names.is_empty() {
+            let states = group_states(sim, self.group_names.len());
+            let centroids = states
+                .iter()
+                .map(|g| (g.centroid[0], g.centroid[D - 1]))
+                .collect();
+            self.group_series.push((sim.time, centroids));
+        }
+        if let (Some(series), Some(wx)) = (&mut self.front, self.front_wall) {
+            let x = front_position(sim) - wx;
+            self.front_series.push((sim.time, x));
+            series.push(&[sim.time, x])?;
+        }
+        Ok(())
+    }
+
+    /// The row of one step in `steps.csv`.
+    pub fn step(&mut self, sim: &Simulation<D>, r: &StepReport) -> Result<()> {
+        self.steps.push(&StepRow {
+            step: sim.step_count,
+            time: sim.time,
+            dt: r.dt,
+            unknowns: r.unknowns,
+            ppe_iterations: r.solve.iterations,
+            ppe_residual: r.solve.residual,
+            solver_fallback: r.solver_fallback as u8,
+            ds_active: r.ds_active,
+            min_pair_distance_l0: r.min_pair_distance / sim.l0(),
+            close_pairs: r.close_pairs,
+            max_speed: r.max_speed,
+            collisions: r.collisions,
+        })
+    }
+
+    /// The run folder.
+    pub fn out_dir(&self) -> &Path {
+        &self.out
+    }
+
+    /// Writes everything appended so far.
+    pub fn flush(&mut self) -> Result<()> {
+        self.metrics.flush()?;
+        self.steps.flush()?;
+        for s in [&mut self.probes, &mut self.groups, &mut self.front]
+            .into_iter()
+            .flatten()
+        {
+            s.flush()?;
+        }
+        Ok(())
+    }
+}

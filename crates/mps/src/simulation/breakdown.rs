@@ -1,0 +1,174 @@
+//! Breakdown: when a run stops being physical (cases.md, "Breakdown"), and the checks of a
+//! new state that decide it.
+
+use crate::particles::{Kind, Particles, Vector};
+use rayon::prelude::*;
+use std::fmt;
+
+/// Why a run broke down.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BreakdownReason {
+    /// A NaN or infinity appeared.
+    NotFinite,
+    /// The PPE solver did not converge.
+    SolverDiverged {
+        /// Iterations taken.
+        iterations: usize,
+        /// Relative residual reached.
+        residual: f64,
+    },
+    /// A particle left the domain.
+    LeftDomain,
+    /// Two particles came closer than the stated fraction of l0.
+    Penetration {
+        /// Closest distance / l0.
+        distance_l0: f64,
+    },
+    /// The largest speed passed its bound.
+    SpeedBlowUp {
+        /// Speed reached (m/s).
+        speed: f64,
+        /// Bound (m/s).
+        bound: f64,
+    },
+    /// The Courant time step fell below its floor.
+    TimeStepCollapse {
+        /// The step the Courant limit asked for (s).
+        dt: f64,
+    },
+}
+
+/// A breakdown: when, why, and which particles (ids) were involved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Breakdown {
+    /// Simulated time of the last good state (s).
+    pub time: f64,
+    /// Step number that failed.
+    pub step: u64,
+    /// The reason.
+    pub reason: BreakdownReason,
+    /// Ids of the particles involved (at most a few).
+    pub particles: Vec<u32>,
+}
+
+/// A failed step: the reason and the ids of the particles involved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Failure {
+    /// The reason.
+    pub reason: BreakdownReason,
+    /// Ids of the particles involved, at most a few.
+    pub particles: Vec<u32>,
+}
+
+impl From<BreakdownReason> for Failure {
+    fn from(reason: BreakdownReason) -> Self {
+        Failure {
+            reason,
+            particles: Vec::new(),
+        }
+    }
+}
+
+impl fmt::Display for Breakdown {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let why = match &self.reason {
+            BreakdownReason::NotFinite => "NaN or infinity in the particle state".to_string(),
+            BreakdownReason::SolverDiverged {
+                iterations,
+                residual,
+            } => format!(
+                "pressure solver did not converge ({iterations} iterations, residual {residual:.2e})"
+            ),
+            BreakdownReason::LeftDomain => "a particle left the domain".to_string(),
+            BreakdownReason::Penetration { distance_l0 } => {
+                format!("particles interpenetrated (pair at {distance_l0:.3} l0)")
+            }
+            BreakdownReason::SpeedBlowUp { speed, bound } => {
+                format!("speed blew up ({speed:.3e} m/s > bound {bound:.3e} m/s)")
+            }
+            BreakdownReason::TimeStepCollapse { dt } => {
+                format!("time step collapsed (dt = {dt:.3e} s)")
+            }
+        };
+        write!(
+            f,
+            "breakdown at t = {:.6} s (step {}): {why}",
+            self.time, self.step
+        )
+    }
+}
+
+/// The limits a new state is checked against.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits<const D: usize> {
+    /// Fluid particles beyond this box have left the domain (m).
+    pub lo: Vector<D>,
+    /// Upper corner of that box (m).
+    pub hi: Vector<D>,
+    /// Closest allowed pair (m).
+    pub min_pair: f64,
+    /// Particle spacing (m), the unit of reported distances.
+    pub l0: f64,
+    /// Largest allowed fluid speed (m/s).
+    pub max_speed: f64,
+}
+
+/// At most this many particles are named in a failure.
+const NAMED: usize = 8;
+
+/// Ids of the first few particles matching `pred`.
+fn first_matching<const D: usize>(p: &Particles<D>, pred: impl Fn(usize) -> bool) -> Vec<u32> {
+    (0..p.len())
+        .filter(|&i| pred(i))
+        .take(NAMED)
+        .map(|i| p.id[i])
+        .collect()
+}
+
+/// Checks a new state (`pos`, `vel`, `pressure` over the particles `p`, the closest pair
+/// `min_pair` in m) against the limits; returns the largest fluid speed (m/s).
+pub fn check_state<const D: usize>(
+    p: &Particles<D>,
+    pos: &[Vector<D>],
+    vel: &[Vector<D>],
+    pressure: &[f64],
+    min_pair: f64,
+    lim: &Limits<D>,
+) -> Result<f64, Failure> {
+    let n = pos.len();
+    let finite = |i: usize| pos[i].is_finite() && vel[i].is_finite() && pressure[i].is_finite();
+    if !(0..n).into_par_iter().all(finite) {
+        return Err(Failure {
+            reason: BreakdownReason::NotFinite,
+            particles: first_matching(p, |i| !finite(i)),
+        });
+    }
+    let outside = |i: usize| {
+        p.kind[i] == Kind::Fluid && (0..D).any(|k| pos[i][k] < lim.lo[k] || pos[i][k] > lim.hi[k])
+    };
+    if (0..n).into_par_iter().any(outside) {
+        return Err(Failure {
+            reason: BreakdownReason::LeftDomain,
+            particles: first_matching(p, outside),
+        });
+    }
+    if min_pair < lim.min_pair {
+        return Err(BreakdownReason::Penetration {
+            distance_l0: min_pair / lim.l0,
+        }
+        .into());
+    }
+    let umax = (0..n)
+        .into_par_iter()
+        .filter(|&i| p.kind[i] == Kind::Fluid)
+        .map(|i| vel[i].norm())
+        .reduce(|| 0.0, f64::max);
+    if umax > lim.max_speed {
+        let bound = lim.max_speed;
+        return Err(Failure {
+            reason: BreakdownReason::SpeedBlowUp { speed: umax, bound },
+            particles: first_matching(p, |i| vel[i].norm() > bound),
+        });
+    }
+    Ok(umax)
+}

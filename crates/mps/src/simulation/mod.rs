@@ -1,0 +1,314 @@
+//! The semi-implicit MPS time step (equations.md section 5; paper section 2), as a list of
+//! named stages in [`Simulation::advance`]; each stage is a method in `stages`.
+//!
+//! Owns the running state (particles, neighbour lists, the resolved scheme, the pressure
+//! solver, the clock). May use `particles`, `numerics`, `linalg` and the case it was built
+//! from (`input`); knows nothing of files or diagnostics.
+
+pub mod breakdown;
+pub mod pressure_solver;
+mod stages;
+pub mod time_step;
+pub mod timers;
+
+pub use breakdown::{Breakdown, BreakdownReason};
+pub use stages::{DensitySurface, Predicted};
+pub use timers::{Stage, Timers};
+
+use crate::error::CaseError;
+use crate::input::Case;
+use crate::linalg::SolveStats;
+use crate::numerics::ppe::PressureSystem;
+use crate::numerics::{weight, Kernels, Scheme};
+use crate::particles::{Kind, NeighborList, Particles, Vector, View};
+use breakdown::{Failure, Limits};
+use pressure_solver::PressureSolver;
+use std::time::Instant;
+
+/// Neighbour-list skin, fraction of l0: the list stays valid while particles move less than
+/// half of it (docs/decisions.md, "Neighbour skin").
+const SKIN: f64 = 0.3;
+
+/// Default speed bound, multiple of the case's velocity scale (docs/decisions.md,
+/// "Breakdown speed").
+const SPEED_BOUND_FACTOR: f64 = 50.0;
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Time step used (s).
+    pub dt: f64,
+    /// PPE unknowns.
+    pub unknowns: usize,
+    /// PPE solver statistics.
+    pub solve: SolveStats,
+    /// True when the PPE preconditioner fell back to Jacobi this step.
+    pub solver_fallback: bool,
+    /// DS-active pairs.
+    pub ds_active: u64,
+    /// Smallest distance between a fluid particle and any neighbour (m).
+    pub min_pair_distance: f64,
+    /// Pairs closer than 0.9 l0.
+    pub close_pairs: u64,
+    /// Largest fluid speed after the step (m/s).
+    pub max_speed: f64,
+    /// Pairs treated by the collision model.
+    pub collisions: u64,
+}
+
+/// A running simulation: the particles, the resolved scheme and everything the step needs.
+pub struct Simulation<const D: usize> {
+    /// The case it was built from.
+    pub case: Case,
+    /// The particles.
+    pub particles: Particles<D>,
+    /// The resolved scheme.
+    pub scheme: Scheme,
+    /// Kernel constants and spacing.
+    pub kernels: Kernels,
+    /// Gravity (m/s^2).
+    pub gravity: Vector<D>,
+    /// Kinematic viscosity per phase (m^2/s).
+    pub phase_viscosity: Vec<f64>,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Steps taken.
+    pub step_count: u64,
+    /// Largest time step (s).
+    pub dt_max: f64,
+    /// Speed above which the run counts as blown up (m/s).
+    pub max_speed_bound: f64,
+    /// Time per stage.
+    pub timers: Timers,
+    /// Report of the last step.
+    pub last: StepReport,
+    /// Keep each step's assembled PPE in `last_system` (for benchmarks and solver tests).
+    pub keep_system: bool,
+    /// The PPE of the last step, when `keep_system` is set.
+    pub last_system: Option<PressureSystem>,
+    /// The pressure solver (its choice, kept set-up and fall-back count).
+    pub solver: PressureSolver,
+    neighbors: NeighborList,
+    skin: f64,
+}
+
+impl<const D: usize> Simulation<D> {
+    /// Builds the particles of `case` and prepares the run; `label` names the case in errors.
+    pub fn new(case: Case, label: &str) -> Result<Self, CaseError> {
+        let particles = crate::input::setup::build_particles::<D>(&case, label)?;
+        let scheme = case.scheme(label)?;
+        let l0 = case.particles.spacing;
+        let kernels = Kernels::new::<D>(l0, case.particles.re_grad, case.particles.re_lap);
+        let gravity = Vector::from_slice(&case.physics.gravity).expect("validated");
+        let g = gravity.norm();
+        let dt_max = time_step::largest_time_step(&case, &particles, g, label)?;
+        let u_scale = time_step::velocity_scale(&particles, g, l0);
+        let max_speed_bound = case.breakdown.max_speed.unwrap_or(if u_scale > 0.0 {
+            SPEED_BOUND_FACTOR * u_scale
+        } else {
+            f64::INFINITY
+        });
+        let mut sim = Simulation {
+            phase_viscosity: case.phases.iter().map(|p| p.viscosity).collect(),
+            solver: PressureSolver::new(&case.solver),
+            case,
+            particles,
+            scheme,
+            kernels,
+            gravity,
+            time: 0.0,
+            step_count: 0,
+            dt_max,
+            max_speed_bound,
+            timers: Timers::default(),
+            last: StepReport::default(),
+            keep_system: false,
+            last_system: None,
+            neighbors: NeighborList::default(),
+            skin: SKIN * l0,
+        };
+        sim.reorder();
+        sim.refresh_diagnostic_fields();
+        Ok(sim)
+    }
+
+    /// Particle spacing `l0` (m).
+    pub fn l0(&self) -> f64 {
+        self.kernels.l0
+    }
+
+    /// Advances one step, stopping at `until` (s) if it comes first. On breakdown the
+    /// particles are restored to the last good state and the reason is returned.
+    pub fn step(&mut self, until: f64) -> Result<StepReport, Breakdown> {
+        let backup = self.particles.clone();
+        match self.advance(until) {
+            Ok(r) => {
+                self.last = r;
+                self.step_count += 1;
+                self.time += r.dt;
+                Ok(r)
+            }
+            Err(f) => {
+                self.particles = backup;
+                Err(Breakdown {
+                    time: self.time,
+                    step: self.step_count + 1,
+                    reason: f.reason,
+                    particles: f.particles,
+                })
+            }
+        }
+    }
+
+    /// One step of the semi-implicit algorithm (paper section 2, equations.md s.5).
+    fn advance(&mut self, until: f64) -> Result<StepReport, Failure> {
+        let dt = self.time_step(until)?;
+        let mut report = StepReport {
+            dt,
+            ..Default::default()
+        };
+        // 1. Neighbours at r^n (reordered for locality now and then).
+        self.timed(Stage::Neighbors, |s| s.update_neighbors());
+        // 2. Explicit forces: u* = u + dt (nu lap u + g), r* = r + dt u*; optional collisions.
+        let mut pred = self.timed(Stage::Explicit, |s| s.predict(dt));
+        self.keep_neighbors_valid(&pred)?;
+        if let Some(c) = self.scheme.collision {
+            report.collisions = self.timed(Stage::Explicit, |s| s.collide(&mut pred, c, dt));
+        }
+        // 3. Number density n*, free surface, densities of wall and dummy particles.
+        let surf = self.timed(Stage::DensitySurface, |s| s.density_and_surface(&pred.pos));
+        self.timed(Stage::DensitySurface, |s| s.update_wall_density(&pred.pos));
+        // 4. Pressure Poisson equation at r*, u*.
+        let density = self.ppe_density(&pred, &surf);
+        let sys = self.timed(Stage::PpeAssembly, |s| {
+            s.assemble(&pred, &surf, &density, dt)
+        });
+        report.unknowns = sys.particle_of.len();
+        let mut pressure = self.solve_pressure(sys, &mut report)?;
+        // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization.
+        let t = Instant::now();
+        let carries = self.boundary_pressures(&pred, &surf, &mut pressure);
+        let acc = self.pressure_acceleration(&pred, &surf, &density, &pressure, &carries);
+        let (ds_acc, ds_active) = self.stabilize(&pred, &surf, &acc, dt);
+        report.ds_active = ds_active;
+        (report.min_pair_distance, report.close_pairs) = self.pair_metrics(&pred, &surf);
+        self.timers.add(Stage::Gradient, t.elapsed());
+        // 6. Correction u = u* + dt a, r = r* + dt^2 a, and the breakdown checks.
+        let min_pair = report.min_pair_distance;
+        report.max_speed = self.timed(Stage::Correction, |s| {
+            s.correct(
+                (pred, surf),
+                (&acc, ds_acc.as_deref()),
+                pressure,
+                min_pair,
+                dt,
+            )
+        })?;
+        Ok(report)
+    }
+
+    /// Runs `f` and adds its wall-clock time to `stage`.
+    fn timed<T>(&mut self, stage: Stage, f: impl FnOnce(&mut Self) -> T) -> T {
+        let t = Instant::now();
+        let r = f(self);
+        self.timers.add(stage, t.elapsed());
+        r
+    }
+
+    fn cutoff(&self) -> f64 {
+        self.kernels.grad.re.max(self.kernels.lap.re) + self.skin
+    }
+
+    /// Drops any kept solver set-up (the AMG hierarchy), so the next step builds it afresh;
+    /// called where a checkpoint is written, so a restarted run continues bit-identically.
+    pub fn reset_solver_cache(&mut self) {
+        self.solver.reset();
+    }
+
+    /// Rebuilds the neighbour lists at the current positions (after a restore).
+    pub fn rebuild_neighbors(&mut self) {
+        self.neighbors = crate::particles::neighbors::build_neighbor_list(
+            &self.particles.position,
+            self.cutoff(),
+        );
+    }
+
+    /// Recomputes number density, free-surface flags and wall pressures at the current
+    /// positions (for output of the initial state and after a restart).
+    pub fn refresh_diagnostic_fields(&mut self) {
+        self.rebuild_neighbors();
+        let pos = self.particles.position.clone();
+        let surf = self.density_and_surface(&pos);
+        self.particles.number_density = surf.number_density;
+        self.particles.free_surface = surf.free_surface;
+        if self.scheme.wall_pressure == crate::numerics::walls::WallPressure::Extrapolated {
+            let v = self.view();
+            let p = &self.particles;
+            let re = self.kernels.lap.re;
+            let walls: Vec<(usize, f64)> = (0..p.len())
+                .filter(|&i| p.kind[i] != Kind::Fluid)
+                .map(|i| {
+                    let e = crate::numerics::walls::extrapolated_pressure(
+                        i,
+                        &v,
+                        &p.pressure,
+                        self.gravity,
+                        re,
+                    );
+                    (i, e.unwrap_or(0.0).max(0.0))
+                })
+                .collect();
+            for (i, v) in walls {
+                self.particles.pressure[i] = v;
+            }
+        }
+    }
+
+    /// The shared read-only view of the current state (positions, velocities, ...).
+    pub fn view(&self) -> View<'_, D> {
+        let p = &self.particles;
+        View {
+            pos: &p.position,
+            vel: &p.velocity,
+            kind: &p.kind,
+            density: &p.density,
+            free_surface: &p.free_surface,
+            number_density: &p.number_density,
+            neighbors: &self.neighbors,
+        }
+    }
+
+    /// The breakdown limits of this case.
+    fn limits(&self) -> Limits<D> {
+        let l0 = self.l0();
+        // A particle centre may come within l0/2 of a wall surface without penetrating it;
+        // it has left once it is a full spacing beyond the domain box (past the wall row).
+        let pad = Vector([l0; D]);
+        Limits {
+            lo: Vector::<D>::from_slice(&self.case.domain.min).expect("validated") - pad,
+            hi: Vector::<D>::from_slice(&self.case.domain.max).expect("validated") + pad,
+            min_pair: self.case.breakdown.min_pair_distance * l0,
+            l0,
+            max_speed: self.max_speed_bound,
+        }
+    }
+
+    /// Shepard-weighted pressure (Pa) at point `x` from fluid and wall particles within
+    /// re_grad; `None` when no particle is in range.
+    pub fn sample_pressure(&self, x: &Vector<D>) -> Option<f64> {
+        let p = &self.particles;
+        let re = self.kernels.grad.re;
+        let (mut sw, mut swp) = (0.0, 0.0);
+        for i in 0..p.len() {
+            if p.kind[i] == Kind::Dummy {
+                continue;
+            }
+            let w = weight((p.position[i] - *x).norm(), re);
+            if w > 0.0 {
+                sw += w;
+                swp += w * p.pressure[i];
+            }
+        }
+        (sw > 0.0).then(|| swp / sw)
+    }
+}

@@ -1,0 +1,188 @@
+//! The pressure solver: owns the solver choice, the preconditioner, the kept AMG hierarchy
+//! and its reuse policy, and counts preconditioner fall-backs (an AMG or IC(0) set-up that
+//! fails falls back to Jacobi; every such step is reported, never silent).
+
+use crate::input::case::SolverSpec;
+use crate::linalg::{pcg, Amg, AmgParams, Ic0, Identity, Jacobi, NotConverged, SolveStats};
+use crate::linalg::{Precondition, SolverKind};
+use crate::numerics::ppe::PressureSystem;
+use std::time::{Duration, Instant};
+
+/// Steps an AMG hierarchy is reused for while the unknowns are unchanged (docs/decisions.md,
+/// "AMG reuse").
+const AMG_MAX_AGE: u32 = 10;
+
+/// An AMG hierarchy kept from an earlier step.
+#[derive(Debug)]
+struct AmgCache {
+    /// The unknowns it was built for (row -> particle).
+    particle_of: Vec<u32>,
+    /// The hierarchy.
+    amg: Amg,
+    /// CG iterations of the solve right after the set-up.
+    setup_iterations: usize,
+    /// Steps it has been reused.
+    age: u32,
+}
+
+/// What one solve did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveReport {
+    /// Iterations and final residual.
+    pub stats: SolveStats,
+    /// Preconditioner set-up time.
+    pub setup: Duration,
+    /// CG time.
+    pub solve: Duration,
+    /// True when the chosen preconditioner could not be built and Jacobi was used.
+    pub fallback: bool,
+}
+
+/// The PPE solver of a simulation.
+#[derive(Debug)]
+pub struct PressureSolver {
+    kind: SolverKind,
+    tolerance: f64,
+    max_iterations: usize,
+    amg: Option<AmgCache>,
+    last_iterations: usize,
+    /// Steps whose preconditioner fell back to Jacobi.
+    pub fallbacks: u64,
+}
+
+/// Runs PCG from `x` with preconditioner `m`, timing it.
+fn timed_pcg(
+    sys: &PressureSystem,
+    x: &mut [f64],
+    m: &(impl Precondition + ?Sized),
+    tol: f64,
+    max_iter: usize,
+) -> (Result<SolveStats, NotConverged>, Duration) {
+    let t = Instant::now();
+    let r = pcg(&sys.matrix, &sys.rhs, x, m, tol, max_iter);
+    (r, t.elapsed())
+}
+
+impl PressureSolver {
+    /// A solver as the case's `[solver]` table asks.
+    pub fn new(spec: &SolverSpec) -> Self {
+        PressureSolver {
+            kind: spec.kind,
+            tolerance: spec.tolerance,
+            max_iterations: spec.max_iterations,
+            amg: None,
+            last_iterations: 0,
+            fallbacks: 0,
+        }
+    }
+
+    /// Drops any kept set-up, so the next solve builds it afresh (at checkpoints, so a
+    /// restarted run continues bit-identically).
+    pub fn reset(&mut self) {
+        self.amg = None;
+    }
+
+    /// Solves `sys` from the warm start `x`; on success `x` holds the solution.
+    pub fn solve(
+        &mut self,
+        sys: &PressureSystem,
+        x: &mut [f64],
+    ) -> (Result<SolveStats, NotConverged>, SolveReport) {
+        let t0 = Instant::now();
+        let (tol, max_iter) = (self.tolerance, self.max_iterations);
+        let mut report = SolveReport::default();
+        let kind = self.kind.for_size(sys.matrix.n());
+        let (result, solve) = match kind {
+            SolverKind::AmgCg => self.solve_amg(sys, x, t0, &mut report),
+            SolverKind::Cg => {
+                report.setup = t0.elapsed();
+                timed_pcg(sys, x, &Identity, tol, max_iter)
+            }
+            SolverKind::Ic0Cg => match Ic0::new(&sys.matrix) {
+                Some(f) => {
+                    report.setup = t0.elapsed();
+                    timed_pcg(sys, x, &f, tol, max_iter)
+                }
+                None => self.jacobi(sys, x, t0, &mut report),
+            },
+            _ => {
+                let pre = Jacobi::new(&sys.matrix);
+                report.setup = t0.elapsed();
+                timed_pcg(sys, x, &pre, tol, max_iter)
+            }
+        };
+        self.finish(result, solve, report)
+    }
+
+    /// The Jacobi fall-back of a failed set-up, counted.
+    fn jacobi(
+        &mut self,
+        sys: &PressureSystem,
+        x: &mut [f64],
+        t0: Instant,
+        report: &mut SolveReport,
+    ) -> (Result<SolveStats, NotConverged>, Duration) {
+        self.fallbacks += 1;
+        report.fallback = true;
+        let pre = Jacobi::new(&sys.matrix);
+        report.setup = t0.elapsed();
+        timed_pcg(sys, x, &pre, self.tolerance, self.max_iterations)
+    }
+
+    fn finish(
+        &mut self,
+        result: Result<SolveStats, NotConverged>,
+        solve: Duration,
+        mut report: SolveReport,
+    ) -> (Result<SolveStats, NotConverged>, SolveReport) {
+        report.solve = solve;
+        report.stats = match &result {
+            Ok(s) => *s,
+            Err(e) => e.stats,
+        };
+        self.last_iterations = report.stats.iterations;
+        (result, report)
+    }
+
+    /// AMG-CG: reuse the kept hierarchy while the unknowns are the same particles and it
+    /// still converges nearly as fast as right after its set-up; rebuild otherwise.
+    fn solve_amg(
+        &mut self,
+        sys: &PressureSystem,
+        x: &mut [f64],
+        t0: Instant,
+        report: &mut SolveReport,
+    ) -> (Result<SolveStats, NotConverged>, Duration) {
+        let (tol, max_iter) = (self.tolerance, self.max_iterations);
+        let last = self.last_iterations;
+        let reusable = self.amg.as_ref().is_some_and(|c| {
+            c.particle_of == sys.particle_of
+                && c.age < AMG_MAX_AGE
+                && 2 * last <= 3 * c.setup_iterations.max(4)
+        });
+        if reusable {
+            let c = self.amg.as_mut().expect("checked");
+            c.amg.refresh_fine(&sys.matrix);
+            c.age += 1;
+            report.setup = t0.elapsed();
+            return timed_pcg(sys, x, &c.amg, tol, max_iter);
+        }
+        self.amg = None;
+        match Amg::new(&sys.matrix, AmgParams::default()) {
+            Some(amg) => {
+                report.setup = t0.elapsed();
+                let (r, solve) = timed_pcg(sys, x, &amg, tol, max_iter);
+                if let Ok(st) = r {
+                    self.amg = Some(AmgCache {
+                        particle_of: sys.particle_of.clone(),
+                        amg,
+                        setup_iterations: st.iterations,
+                        age: 0,
+                    });
+                }
+                (r, solve)
+            }
+            None => self.jacobi(sys, x, t0, report),
+        }
+    }
+}

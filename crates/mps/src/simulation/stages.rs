@@ -1,0 +1,360 @@
+//! The stages of the step, one method each, in step order. Every stage reads the particle
+//! state through a [`View`] and hands its result to the next as a typed value.
+
+use super::breakdown::{check_state, BreakdownReason, Failure};
+use super::{Simulation, Stage, StepReport};
+use crate::numerics::collision::{collide, Collision};
+use crate::numerics::density::smoothed_density;
+use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
+use crate::numerics::operators::{laplacian_vector, number_density};
+use crate::numerics::ppe::{assemble, PressureSystem};
+use crate::numerics::stabilization::ds_acceleration;
+use crate::numerics::surface::{detect, SurfaceInput};
+use crate::numerics::walls::{boundary_pressures, wall_densities};
+use crate::particles::neighbors::{build_neighbor_list, locality_order};
+use crate::particles::{Kind, NeighborList, Vector, View, NONE};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Steps between reorderings of the particles along the cell list (memory locality; the
+/// AMG hierarchy is rebuilt after each: docs/decisions.md, "Reordering").
+const REORDER_EVERY: u64 = 20;
+
+/// The intermediate state after the explicit stage: `r*`, `u*`.
+#[derive(Clone, Debug)]
+pub struct Predicted<const D: usize> {
+    /// Positions `r*` (m).
+    pub pos: Vec<Vector<D>>,
+    /// Velocities `u*` (m/s).
+    pub vel: Vec<Vector<D>>,
+}
+
+/// Number density and free-surface flags at `r*`.
+#[derive(Clone, Debug)]
+pub struct DensitySurface {
+    /// Number density `n*` at re_grad (dimensionless).
+    pub number_density: Vec<f64>,
+    /// Free-surface flags.
+    pub free_surface: Vec<bool>,
+}
+
+impl<const D: usize> Simulation<D> {
+    /// The view of the intermediate state: positions and velocities `pos`, `vel`, the surface
+    /// of `surf` (the stored one if `None`), densities `density` (the particles' if `None`).
+    fn view_of<'a>(
+        &'a self,
+        pos: &'a [Vector<D>],
+        vel: &'a [Vector<D>],
+        surf: Option<&'a DensitySurface>,
+        density: Option<&'a [f64]>,
+    ) -> View<'a, D> {
+        let p = &self.particles;
+        View {
+            pos,
+            vel,
+            kind: &p.kind,
+            density: density.unwrap_or(&p.density),
+            free_surface: surf.map_or(&p.free_surface, |s| &s.free_surface),
+            number_density: surf.map_or(&p.number_density, |s| &s.number_density),
+            neighbors: &self.neighbors,
+        }
+    }
+
+    /// Sorts the particles along the cells of the neighbour grid.
+    pub(super) fn reorder(&mut self) {
+        let order = locality_order(&self.particles.position, self.cutoff());
+        self.particles.permute(&order);
+    }
+
+    /// Stage 1: neighbour lists at `r^n` (with a skin), reordering every few steps.
+    pub(super) fn update_neighbors(&mut self) {
+        if self.step_count.is_multiple_of(REORDER_EVERY) {
+            self.reorder();
+        }
+        // The old list goes first, so the two never coexist (peak memory).
+        self.neighbors = NeighborList::default();
+        self.neighbors = build_neighbor_list(&self.particles.position, self.cutoff());
+    }
+
+    /// Stage 2: `u* = u + dt (nu lap u + g)`, `r* = r + dt u*` for fluid particles.
+    pub(super) fn predict(&self, dt: f64) -> Predicted<D> {
+        let p = &self.particles;
+        let k = &self.kernels.lap;
+        let g = self.gravity;
+        let (vel, pos) = (0..p.len())
+            .into_par_iter()
+            .map(|i| {
+                if p.kind[i] != Kind::Fluid {
+                    return (p.velocity[i], p.position[i]);
+                }
+                let nu = self.phase_viscosity[p.phase[i] as usize];
+                let mut a = g;
+                if nu > 0.0 {
+                    a += laplacian_vector(i, &p.position, &p.velocity, &self.neighbors, k) * nu;
+                }
+                let u = p.velocity[i] + a * dt;
+                (u, p.position[i] + u * dt)
+            })
+            .unzip();
+        Predicted { pos, vel }
+    }
+
+    /// Rebuilds the neighbour lists at `r*` when a particle moved more than half the skin.
+    pub(super) fn keep_neighbors_valid(&mut self, pred: &Predicted<D>) -> Result<(), Failure> {
+        let old = &self.particles.position;
+        let max_move = (0..pred.pos.len())
+            .into_par_iter()
+            .map(|i| (pred.pos[i] - old[i]).norm())
+            .reduce(|| 0.0, f64::max);
+        if !max_move.is_finite() {
+            return Err(BreakdownReason::NotFinite.into());
+        }
+        if 2.0 * max_move > self.skin {
+            let t = Instant::now();
+            self.neighbors = NeighborList::default();
+            self.neighbors = build_neighbor_list(&pred.pos, self.cutoff());
+            self.timers.add(Stage::Neighbors, t.elapsed());
+        }
+        Ok(())
+    }
+
+    /// Stage 2b: the collision model on `u*`, moving `r*` by the velocity change; returns
+    /// the number of treated pairs.
+    pub(super) fn collide(&self, pred: &mut Predicted<D>, c: Collision, dt: f64) -> u64 {
+        let v = self.view_of(&pred.pos, &pred.vel, None, None);
+        let (vel, n) = collide(&v, c.alpha * self.l0(), c.restitution);
+        for i in 0..pred.pos.len() {
+            pred.pos[i] += (vel[i] - pred.vel[i]) * dt;
+        }
+        pred.vel = vel;
+        n
+    }
+
+    /// Stage 3: number density at re_grad and free-surface flags at positions `pos`.
+    pub(super) fn density_and_surface(&self, pos: &[Vector<D>]) -> DensitySurface {
+        let re = self.kernels.grad.re;
+        let nd: Vec<f64> = (0..pos.len())
+            .into_par_iter()
+            .map(|i| number_density(i, pos, &self.neighbors, re))
+            .collect();
+        let input = SurfaceInput {
+            pos,
+            neighbors: &self.neighbors,
+            number_density: &nd,
+            kernels: &self.kernels,
+        };
+        let s = &self.scheme;
+        let free_surface = detect(
+            &s.surface,
+            &input,
+            &self.particles.kind,
+            s.wall_surface_test,
+        );
+        DensitySurface {
+            number_density: nd,
+            free_surface,
+        }
+    }
+
+    /// Stage 3b: densities of wall and dummy particles from the fluid at `pos`.
+    pub(super) fn update_wall_density(&mut self, pos: &[Vector<D>]) {
+        let v = self.view_of(pos, pos, None, None);
+        let density = wall_densities(&v, &self.particles.backing_wall, &self.kernels);
+        self.particles.density = density;
+    }
+
+    /// The densities of the PPE coefficient and the gradient: smoothed when the scheme says
+    /// so, else `None` (the particles' own).
+    pub(super) fn ppe_density(
+        &self,
+        pred: &Predicted<D>,
+        surf: &DensitySurface,
+    ) -> Option<Vec<f64>> {
+        self.scheme.density_smoothing.then(|| {
+            let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+            smoothed_density(&v, &self.kernels)
+        })
+    }
+
+    /// Stage 4: the PPE at the intermediate state.
+    pub(super) fn assemble(
+        &self,
+        pred: &Predicted<D>,
+        surf: &DensitySurface,
+        density: &Option<Vec<f64>>,
+        dt: f64,
+    ) -> PressureSystem {
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
+        assemble(&v, &self.kernels, &self.scheme, self.gravity, dt)
+    }
+
+    /// Stage 4b: solves the PPE (warm start from the last pressures) and returns every
+    /// particle's pressure (Pa): 0 for Dirichlet and dummy particles, clamped if the scheme
+    /// says so.
+    pub(super) fn solve_pressure(
+        &mut self,
+        sys: PressureSystem,
+        report: &mut StepReport,
+    ) -> Result<Vec<f64>, Failure> {
+        let p = &self.particles;
+        let mut x: Vec<f64> = sys
+            .particle_of
+            .iter()
+            .map(|&i| p.pressure[i as usize])
+            .collect();
+        let (result, solved) = self.solver.solve(&sys, &mut x);
+        self.timers.add(Stage::PpeSetup, solved.setup);
+        self.timers.add(Stage::PpeSolve, solved.solve);
+        report.solve = solved.stats;
+        report.solver_fallback = solved.fallback;
+        if result.is_err() {
+            return Err(BreakdownReason::SolverDiverged {
+                iterations: solved.stats.iterations,
+                residual: solved.stats.residual,
+            }
+            .into());
+        }
+        let clamp = self.scheme.clamp_negative_pressure;
+        let pressure = (0..sys.row_of.len())
+            .into_par_iter()
+            .map(|i| match sys.row_of[i] {
+                NONE => 0.0,
+                r if clamp => x[r as usize].max(0.0),
+                r => x[r as usize],
+            })
+            .collect();
+        // The PPE is done with: keep it when asked, free it otherwise (lower peak memory).
+        self.last_system = self.keep_system.then_some(sys);
+        Ok(pressure)
+    }
+
+    /// Stage 5a: pressures of wall and dummy particles for the gradient, and which
+    /// particles carry pressure into its stencil.
+    pub(super) fn boundary_pressures(
+        &self,
+        pred: &Predicted<D>,
+        surf: &DensitySurface,
+        pressure: &mut [f64],
+    ) -> Vec<bool> {
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+        let s = &self.scheme;
+        let (model, clamp) = (s.wall_pressure, s.clamp_negative_pressure);
+        let bw = &self.particles.backing_wall;
+        boundary_pressures(&v, bw, model, clamp, self.gravity, &self.kernels, pressure)
+    }
+
+    /// Stage 5b: pressure acceleration `-grad p / rho` of every fluid particle (m/s^2).
+    pub(super) fn pressure_acceleration(
+        &self,
+        pred: &Predicted<D>,
+        surf: &DensitySurface,
+        density: &Option<Vec<f64>>,
+        pressure: &[f64],
+        carries: &[bool],
+    ) -> Vec<Vector<D>> {
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+        let vc = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
+        let (k, s) = (&self.kernels, &self.scheme);
+        let n = pred.pos.len();
+        let ph: Vec<f64> = if s.gradient == GradientModel::Taylor {
+            Vec::new()
+        } else {
+            (0..n)
+                .into_par_iter()
+                .map(|i| p_hat(i, &v, pressure, carries, k.grad.re))
+                .collect()
+        };
+        (0..n)
+            .into_par_iter()
+            .map(|i| {
+                if v.kind[i] == Kind::Fluid {
+                    pressure_acceleration(i, &vc, pressure, &ph, carries, k, s)
+                } else {
+                    Vector::zero()
+                }
+            })
+            .collect()
+    }
+
+    /// Stage 5c: Dynamic Stabilization (paper Eq. 7-19): the DS acceleration of every
+    /// particle (m/s^2), if the scheme has it, and the number of active pairs.
+    pub(super) fn stabilize(
+        &self,
+        pred: &Predicted<D>,
+        surf: &DensitySurface,
+        acc: &[Vector<D>],
+        dt: f64,
+    ) -> (Option<Vec<Vector<D>>>, u64) {
+        let Some(ds) = &self.scheme.ds else {
+            return (None, 0);
+        };
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+        let (a, active): (Vec<Vector<D>>, Vec<u32>) = (0..pred.pos.len())
+            .into_par_iter()
+            .map(|i| {
+                if v.kind[i] == Kind::Fluid {
+                    ds_acceleration(i, &v, acc, ds, &self.kernels, dt)
+                } else {
+                    (Vector::zero(), 0)
+                }
+            })
+            .unzip();
+        (Some(a), active.iter().map(|&a| a as u64).sum())
+    }
+
+    /// Smallest fluid-neighbour distance (m) and the number of pairs closer than 0.9 l0.
+    pub(super) fn pair_metrics(&self, pred: &Predicted<D>, surf: &DensitySurface) -> (f64, u64) {
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+        let lim = 0.9 * self.l0();
+        let re = self.kernels.grad.re;
+        (0..pred.pos.len())
+            .into_par_iter()
+            .filter(|&i| v.kind[i] == Kind::Fluid)
+            .map(|i| {
+                let (mut m, mut c) = (f64::INFINITY, 0u64);
+                for q in v.pairs(i, re) {
+                    m = m.min(q.r);
+                    if q.r < lim && (v.kind[q.j] != Kind::Fluid || i < q.j) {
+                        c += 1;
+                    }
+                }
+                (m, c)
+            })
+            .reduce(|| (f64::INFINITY, 0), |a, b| (a.0.min(b.0), a.1 + b.1))
+    }
+
+    /// Stage 6: `u = u* + dt a`, `r = r* + dt^2 a` with `a` the pressure and DS
+    /// accelerations; the new state is checked and stored (the step restores the old one on
+    /// failure). Returns the largest fluid speed (m/s).
+    pub(super) fn correct(
+        &mut self,
+        (pred, surf): (Predicted<D>, DensitySurface),
+        (acc, ds_acc): (&[Vector<D>], Option<&[Vector<D>]>),
+        pressure: Vec<f64>,
+        min_pair: f64,
+        dt: f64,
+    ) -> Result<f64, Failure> {
+        let p = &self.particles;
+        let (vel, pos): (Vec<Vector<D>>, Vec<Vector<D>>) = (0..pred.pos.len())
+            .into_par_iter()
+            .map(|i| {
+                if p.kind[i] != Kind::Fluid {
+                    return (pred.vel[i], pred.pos[i]);
+                }
+                let a = match ds_acc {
+                    Some(ds) => acc[i] + ds[i],
+                    None => acc[i],
+                };
+                (pred.vel[i] + a * dt, pred.pos[i] + a * (dt * dt))
+            })
+            .unzip();
+        let result = check_state(p, &pos, &vel, &pressure, min_pair, &self.limits());
+        let p = &mut self.particles;
+        p.velocity = vel;
+        p.position = pos;
+        p.pressure = pressure;
+        p.number_density = surf.number_density;
+        p.free_surface = surf.free_surface;
+        result
+    }
+}

@@ -1,0 +1,101 @@
+//! The time step: fixed, or the Courant and viscous limits (equations.md s.5), landing on the
+//! end time without a sliver of a last step.
+
+use super::breakdown::BreakdownReason;
+use super::Simulation;
+use crate::error::CaseError;
+use crate::input::Case;
+use crate::particles::{Kind, Particles};
+use rayon::prelude::*;
+
+/// The largest time step of a case (s): `time.dt_fixed`, `time.dt_max`, or
+/// `C sqrt(l0/g)` with gravity, `C l0/u0` with only an initial velocity `u0`.
+pub fn largest_time_step<const D: usize>(
+    case: &Case,
+    p: &Particles<D>,
+    g: f64,
+    label: &str,
+) -> Result<f64, CaseError> {
+    let l0 = case.particles.spacing;
+    let c = case.time.courant;
+    let u0 = initial_speed(p);
+    match (case.time.dt_fixed, case.time.dt_max) {
+        (Some(f), _) => Ok(f),
+        (None, Some(m)) => Ok(m),
+        (None, None) if g > 0.0 => Ok(c * (l0 / g).sqrt()),
+        (None, None) if u0 > 0.0 => Ok(c * l0 / u0),
+        _ => Err(CaseError::new(
+            label,
+            "time.dt_max",
+            "",
+            "needed: no gravity and no initial velocity give no time scale",
+        )),
+    }
+}
+
+/// Largest initial fluid speed (m/s).
+pub fn initial_speed<const D: usize>(p: &Particles<D>) -> f64 {
+    (0..p.len())
+        .filter(|&i| p.kind[i] == Kind::Fluid)
+        .map(|i| p.velocity[i].norm())
+        .fold(0.0, f64::max)
+}
+
+/// The velocity scale of a case (m/s): the largest of the initial speed and the free-fall
+/// speed over the fluid's height, `sqrt(2 g (h + l0))`.
+pub fn velocity_scale<const D: usize>(p: &Particles<D>, g: f64, l0: f64) -> f64 {
+    let (mut lo, mut hi) = (f64::MAX, f64::MIN);
+    for i in 0..p.len() {
+        if p.kind[i] == Kind::Fluid {
+            lo = lo.min(p.position[i][D - 1]);
+            hi = hi.max(p.position[i][D - 1]);
+        }
+    }
+    initial_speed(p).max((2.0 * g * (hi - lo + l0)).sqrt())
+}
+
+impl<const D: usize> Simulation<D> {
+    /// The step to take (s) towards `until` (s): fixed, or
+    /// `min(dt_max, C l0 / u_max, 0.1 l0^2 / nu)`; a time-step collapse below
+    /// `breakdown.min_dt_ratio dt_max` is a breakdown.
+    pub(super) fn time_step(&self, until: f64) -> Result<f64, BreakdownReason> {
+        let c = &self.case.time;
+        let dt = if let Some(f) = c.dt_fixed {
+            f
+        } else {
+            let p = &self.particles;
+            let umax = (0..p.len())
+                .into_par_iter()
+                .filter(|&i| p.kind[i] == Kind::Fluid)
+                .map(|i| p.velocity[i].norm())
+                .reduce(|| 0.0, f64::max);
+            let l0 = self.l0();
+            let mut dt = self.dt_max;
+            if umax > 0.0 {
+                dt = dt.min(c.courant * l0 / umax);
+            }
+            let nu = self.phase_viscosity.iter().cloned().fold(0.0, f64::max);
+            if nu > 0.0 {
+                dt = dt.min(0.1 * l0 * l0 / nu);
+            }
+            dt
+        };
+        if dt < self.case.breakdown.min_dt_ratio * self.dt_max {
+            return Err(BreakdownReason::TimeStepCollapse { dt });
+        }
+        Ok(land_on(until - self.time, dt))
+    }
+}
+
+/// The step (s) for `remaining` (s) at step `dt` (s): the last two steps share what is left,
+/// so no sliver of a step kicks the particles (the drift term scales as `1/dt^2`;
+/// docs/decisions.md, "Last steps").
+pub fn land_on(remaining: f64, dt: f64) -> f64 {
+    if remaining < dt * 1.000_001 {
+        remaining.max(dt * 1e-6)
+    } else if remaining < 2.0 * dt {
+        0.5 * remaining
+    } else {
+        dt
+    }
+}
