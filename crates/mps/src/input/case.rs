@@ -492,6 +492,12 @@ impl Case {
         Ok(case)
     }
 
+    /// The resolved scheme of this case (`label` names the case in errors).
+    pub fn scheme(&self, label: &str) -> Result<crate::numerics::Scheme, CaseError> {
+        let courant = self.time.dt_fixed.is_none().then_some(self.time.courant);
+        self.scheme.resolve(courant, label)
+    }
+
     /// Index of the phase called `name`.
     pub fn phase_index(&self, name: &str) -> Option<usize> {
         self.phases.iter().position(|p| p.name == name)

@@ -1,7 +1,6 @@
 //! The `[scheme]` table of a case file: a named preset and overrides of its parts, resolved
 //! into the plain [`Scheme`] the step reads. Every override is range-checked here.
 
-use super::case::Case;
 use crate::error::CaseError;
 use crate::numerics::collision::Collision;
 use crate::numerics::density::DensityAverage;
@@ -241,31 +240,31 @@ impl SchemeSpec {
         };
         let mut s = preset.scheme();
         if let Some(source) = self.source {
-            s.source = source;
-            s.drift = if source == SourceModel::Hs {
+            s.source.model = source;
+            s.source.drift = if source == SourceModel::Hs {
                 DriftControl::Gamma
             } else {
                 DriftControl::None
             };
         }
-        let gamma = self.gamma.unwrap_or(s.gamma);
-        s.gamma = check(
+        let gamma = self.gamma.unwrap_or(s.source.gamma);
+        s.source.gamma = check(
             label,
             "gamma",
             gamma,
             (0.0..=1.0).contains(&gamma),
             "[0, 1]",
         )?;
-        let relax = self.pnd_relaxation.unwrap_or(s.pnd_relaxation);
-        s.pnd_relaxation = check(
+        let relax = self.pnd_relaxation.unwrap_or(s.source.pnd_relaxation);
+        s.source.pnd_relaxation = check(
             label,
             "pnd_relaxation",
             relax,
             relax > 0.0 && relax <= 1.0,
             "(0, 1]",
         )?;
-        let gc = self.gc_min_determinant.unwrap_or(s.gc_min_determinant);
-        s.gc_min_determinant = check(
+        let gc = self.gc_min_determinant.unwrap_or(s.gradient.gc_min_determinant);
+        s.gradient.gc_min_determinant = check(
             label,
             "gc_min_determinant",
             gc,
@@ -283,30 +282,25 @@ impl SchemeSpec {
         s.surface = self.surface(label)?;
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;
-        s.gradient = self.gradient.unwrap_or(s.gradient);
-        s.gradient_correction = self.gradient_correction.unwrap_or(s.gradient_correction);
-        s.hs_normalization = self.hs_normalization.unwrap_or(s.hs_normalization);
-        s.drift = self.drift.unwrap_or(s.drift);
+        let g = &mut s.gradient;
+        g.model = self.gradient.unwrap_or(g.model);
+        g.correction = self.gradient_correction.unwrap_or(g.correction);
+        g.density = self.gradient_density.unwrap_or(g.density);
+        let src = &mut s.source;
+        src.hs_normalization = self.hs_normalization.unwrap_or(src.hs_normalization);
+        src.drift = self.drift.unwrap_or(src.drift);
         s.clamp_negative_pressure = self
             .clamp_negative_pressure
             .unwrap_or(s.clamp_negative_pressure);
         // The wall surface test and air ghosts follow the source (on for HS, off for PND).
-        let hs = s.source != SourceModel::Pnd;
+        let hs = s.source.model != SourceModel::Pnd;
         s.wall_surface_test = self.wall_surface_test.unwrap_or(hs);
         s.air_ghosts = self.air_ghosts.unwrap_or(hs);
         s.density_average = self.density_average.unwrap_or(s.density_average);
-        s.gradient_density = self.gradient_density.unwrap_or(s.gradient_density);
+        s.gradient.average = s.density_average;
         s.density_smoothing = self.density_smoothing.unwrap_or(s.density_smoothing);
         s.wall_pressure = self.wall_pressure.unwrap_or(s.wall_pressure);
         Ok(s)
-    }
-}
-
-impl Case {
-    /// The resolved scheme of this case (`label` names the case in errors).
-    pub fn scheme(&self, label: &str) -> Result<Scheme, CaseError> {
-        let courant = self.time.dt_fixed.is_none().then_some(self.time.courant);
-        self.scheme.resolve(courant, label)
     }
 }
 
@@ -334,7 +328,7 @@ mod tests {
         s.ds.enabled = Some(false);
         s.gradient_correction = Some(false);
         let r = s.resolve(None, "t").unwrap();
-        assert!(r.ds.is_none() && !r.gradient_correction);
+        assert!(r.ds.is_none() && !r.gradient.correction);
     }
 
     #[test]

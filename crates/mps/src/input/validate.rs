@@ -1,283 +1,219 @@
 //! Checks of a parsed case that the types cannot express: signs, lengths, references and
 //! ranges. Every error names the file, the field and the value.
 
-use super::case::{Case, PressureSpec, ShapeSpec, ValidationSpec, VelocitySpec};
+use super::case::{Case, FluidSpec, PressureSpec, ShapeSpec, ValidationSpec, VelocitySpec};
 use super::shapes::shape_bounds;
 use crate::error::CaseError;
 
-impl Case {
-    /// Checks values that the types cannot: signs, lengths, references, ranges.
-    pub fn validate(&self, label: &str) -> Result<(), CaseError> {
-        let err = |field: &str, value: String, message: &str| {
-            Err(CaseError::new(label, field, value, message))
-        };
-        let d = self.dimension;
-        if d != 2 {
-            return err(
-                "dimension",
-                d.to_string(),
-                "only 2D is supported in this version (3D is planned)",
-            );
-        }
-        let vec_ok = |field: &str, v: &[f64]| -> Result<(), CaseError> {
-            if v.len() != d {
-                return err(field, format!("{v:?}"), &format!("expected {d} components"));
-            }
-            if v.iter().any(|x| !x.is_finite()) {
-                return err(field, format!("{v:?}"), "components must be finite");
-            }
+/// Most lattice sites a domain may hold at its spacing (memory bound of the set-up).
+const MAX_LATTICE_SITES: f64 = 5e8;
+
+/// The checks of one case file: its label (for errors) and dimension.
+struct Checker<'a> {
+    label: &'a str,
+    d: usize,
+}
+
+impl Checker<'_> {
+    /// The error of `field` with `value`.
+    fn fail<T>(&self, field: &str, value: impl Into<String>, msg: &str) -> Result<T, CaseError> {
+        Err(CaseError::new(self.label, field, value, msg))
+    }
+
+    /// `ok`, or an error of `field` with `value`.
+    fn require(&self, ok: bool, field: &str, value: f64, msg: &str) -> Result<(), CaseError> {
+        if ok {
             Ok(())
-        };
-        vec_ok("domain.min", &self.domain.min)?;
-        vec_ok("domain.max", &self.domain.max)?;
-        for k in 0..d {
-            if self.domain.max[k] <= self.domain.min[k] {
-                return err(
-                    "domain.max",
-                    format!("{:?}", self.domain.max),
-                    "must exceed domain.min in every component",
-                );
-            }
+        } else {
+            self.fail(field, value.to_string(), msg)
         }
-        let l0 = self.particles.spacing;
-        if !(l0 > 0.0 && l0.is_finite()) {
-            return err("particles.spacing", l0.to_string(), "must be positive");
-        }
-        for (f, v) in [
-            ("particles.re_grad", self.particles.re_grad),
-            ("particles.re_lap", self.particles.re_lap),
-        ] {
-            if !(v > 1.0 && v <= 6.0) {
-                return err(f, v.to_string(), "must lie in (1, 6] (units of spacing)");
-            }
-        }
-        let ncell = self
-            .domain
-            .max
-            .iter()
-            .zip(&self.domain.min)
-            .map(|(a, b)| (a - b) / l0)
-            .product::<f64>();
-        if ncell > 5e8 {
-            return err(
-                "particles.spacing",
-                l0.to_string(),
-                "too fine for the domain (more than 5e8 lattice sites)",
-            );
-        }
-        vec_ok("physics.gravity", &self.physics.gravity)?;
-        let t = &self.time;
-        if !(t.end > 0.0 && t.end.is_finite()) {
-            return err("time.end", t.end.to_string(), "must be positive");
-        }
-        if !(t.courant > 0.0 && t.courant <= 1.0) {
-            return err("time.courant", t.courant.to_string(), "must lie in (0, 1]");
-        }
-        for (f, v) in [("time.dt_max", t.dt_max), ("time.dt_fixed", t.dt_fixed)] {
-            if let Some(v) = v {
-                if !(v > 0.0 && v.is_finite()) {
-                    return err(f, v.to_string(), "must be positive");
-                }
-            }
-        }
-        if !(self.output.interval >= 0.0) {
-            return err(
-                "output.interval",
-                self.output.interval.to_string(),
-                "must be zero or positive",
-            );
-        }
-        if !(self.solver.tolerance > 0.0 && self.solver.tolerance < 1.0) {
-            return err(
-                "solver.tolerance",
-                self.solver.tolerance.to_string(),
-                "must lie in (0, 1)",
-            );
-        }
-        self.scheme(label)?;
-        if self.phases.is_empty() {
-            return err("phases", "[]".into(), "at least one phase is needed");
-        }
-        for (k, p) in self.phases.iter().enumerate() {
-            if !(p.density > 0.0 && p.density.is_finite()) {
-                return err(
-                    &format!("phases.{k}.density"),
-                    p.density.to_string(),
-                    "must be positive",
-                );
-            }
-            if !(p.viscosity >= 0.0 && p.viscosity.is_finite()) {
-                return err(
-                    &format!("phases.{k}.viscosity"),
-                    p.viscosity.to_string(),
-                    "must be zero or positive",
-                );
-            }
-            if self.phases[..k].iter().any(|q| q.name == p.name) {
-                return err(
-                    &format!("phases.{k}.name"),
-                    format!("{:?}", p.name),
-                    "duplicate phase name",
-                );
-            }
-        }
-        if self.fluid.is_empty() {
-            return err("fluid", "[]".into(), "at least one fluid region is needed");
-        }
-        for (k, f) in self.fluid.iter().enumerate() {
-            let base = format!("fluid.{k}");
-            if !self.phases.iter().any(|p| p.name == f.phase) {
-                return err(
-                    &format!("{base}.phase"),
-                    format!("{:?}", f.phase),
-                    "no phase of this name",
-                );
-            }
-            self.check_shape(label, &format!("{base}.shape"), &f.shape, false)?;
-            let (lo, hi) = shape_bounds(&f.shape);
-            for c in 0..d {
-                if lo[c] < self.domain.min[c] - 1e-12 || hi[c] > self.domain.max[c] + 1e-12 {
-                    return err(
-                        &format!("{base}.shape"),
-                        format!("{:?}..{:?}", lo, hi),
-                        "region lies (partly) outside the domain",
-                    );
-                }
-            }
-            match &f.velocity {
-                Some(VelocitySpec::Uniform { value }) => {
-                    vec_ok(&format!("{base}.velocity.value"), value)?
-                }
-                Some(VelocitySpec::Rotation { center, omega }) => {
-                    vec_ok(&format!("{base}.velocity.center"), center)?;
-                    if !omega.is_finite() {
-                        return err(
-                            &format!("{base}.velocity.omega"),
-                            omega.to_string(),
-                            "must be finite",
-                        );
-                    }
-                }
-                Some(VelocitySpec::Affine { u0, x0, a }) => {
-                    vec_ok(&format!("{base}.velocity.u0"), u0)?;
-                    vec_ok(&format!("{base}.velocity.x0"), x0)?;
-                    if a.len() != d {
-                        return err(
-                            &format!("{base}.velocity.a"),
-                            format!("{a:?}"),
-                            &format!("expected {d} rows"),
-                        );
-                    }
-                    for row in a {
-                        vec_ok(&format!("{base}.velocity.a"), row)?;
-                    }
-                }
-                None => {}
-            }
-            if let Some(PressureSpec::SquarePatch { center, side, .. }) = &f.pressure {
-                vec_ok(&format!("{base}.pressure.center"), center)?;
-                if *side <= 0.0 {
-                    return err(
-                        &format!("{base}.pressure.side"),
-                        side.to_string(),
-                        "must be positive",
-                    );
-                }
-            }
-        }
-        for (k, w) in self.walls.iter().enumerate() {
-            self.check_shape(label, &format!("walls.{k}.shape"), &w.shape, true)?;
-        }
-        for (k, p) in self.probes.iter().enumerate() {
-            vec_ok(&format!("probes.{k}.position"), &p.position)?;
-        }
-        if let Some(ValidationSpec::Hydrostatic { probe, .. }) = &self.validation {
-            if !self.probes.iter().any(|p| &p.name == probe) {
-                return err(
-                    "validation.probe",
-                    format!("{probe:?}"),
-                    "no probe of this name",
-                );
-            }
-        }
-        if !(self.breakdown.min_pair_distance >= 0.0 && self.breakdown.min_pair_distance < 1.0) {
-            return err(
-                "breakdown.min_pair_distance",
-                self.breakdown.min_pair_distance.to_string(),
-                "must lie in [0, 1)",
-            );
+    }
+
+    /// A vector of `d` finite components.
+    fn vector(&self, field: &str, v: &[f64]) -> Result<(), CaseError> {
+        if v.len() != self.d || v.iter().any(|x| !x.is_finite()) {
+            let msg = format!("expected {} finite components", self.d);
+            return self.fail(field, format!("{v:?}"), &msg);
         }
         Ok(())
     }
 
-    fn check_shape(
-        &self,
-        label: &str,
-        field: &str,
-        s: &ShapeSpec,
-        wall: bool,
-    ) -> Result<(), CaseError> {
-        let d = self.dimension;
-        let e =
-            |f: &str, v: String, m: &str| Err(CaseError::new(label, format!("{field}.{f}"), v, m));
-        let len = |f: &str, v: &[f64]| {
-            if v.len() != d || v.iter().any(|x| !x.is_finite()) {
-                e(
-                    f,
-                    format!("{v:?}"),
-                    &format!("expected {d} finite components"),
-                )
-            } else {
-                Ok(())
-            }
-        };
+    /// A finite positive number.
+    fn positive(&self, field: &str, v: f64) -> Result<(), CaseError> {
+        self.require(v > 0.0 && v.is_finite(), field, v, "must be positive")
+    }
+
+    /// A shape of a fluid region (`wall` false) or a wall (`wall` true) at `field`.
+    fn shape(&self, field: &str, s: &ShapeSpec, wall: bool) -> Result<(), CaseError> {
+        let at = |f: &str| format!("{field}.{f}");
         match s {
             ShapeSpec::Rectangle { min, max } | ShapeSpec::Tank { min, max, .. } => {
-                len("min", min)?;
-                len("max", max)?;
+                self.vector(&at("min"), min)?;
+                self.vector(&at("max"), max)?;
                 if min.iter().zip(max).any(|(a, b)| b <= a) {
-                    return e(
-                        "max",
-                        format!("{max:?}"),
-                        "must exceed min in every component",
-                    );
+                    let msg = "must exceed min in every component";
+                    return self.fail(&at("max"), format!("{max:?}"), msg);
                 }
                 if !wall && matches!(s, ShapeSpec::Tank { .. }) {
-                    return e("type", "\"tank\"".into(), "tank is a wall shape");
+                    return self.fail(&at("type"), "\"tank\"", "tank is a wall shape");
                 }
             }
             ShapeSpec::Circle { center, radius } => {
-                len("center", center)?;
-                if !(*radius > 0.0) {
-                    return e("radius", radius.to_string(), "must be positive");
-                }
+                self.vector(&at("center"), center)?;
+                self.positive(&at("radius"), *radius)?;
             }
             ShapeSpec::Polygon { points } | ShapeSpec::Polyline { points, .. } => {
-                let need = if matches!(s, ShapeSpec::Polygon { .. }) {
-                    3
-                } else {
-                    2
-                };
+                let need = if matches!(s, ShapeSpec::Polygon { .. }) { 3 } else { 2 };
                 if points.len() < need {
-                    return e(
-                        "points",
-                        format!("{points:?}"),
-                        &format!("needs at least {need} points"),
-                    );
+                    let msg = format!("needs at least {need} points");
+                    return self.fail(&at("points"), format!("{points:?}"), &msg);
                 }
                 for p in points {
-                    len("points", p)?;
+                    self.vector(&at("points"), p)?;
                 }
                 if let ShapeSpec::Polyline { thickness, .. } = s {
                     if !wall {
-                        return e("type", "\"polyline\"".into(), "polyline is a wall shape");
+                        return self.fail(&at("type"), "\"polyline\"", "polyline is a wall shape");
                     }
-                    if !(*thickness > 0.0) {
-                        return e("thickness", thickness.to_string(), "must be positive");
-                    }
+                    self.positive(&at("thickness"), *thickness)?;
                 }
             }
         }
         Ok(())
+    }
+}
+
+impl Case {
+    /// Checks values that the types cannot: signs, lengths, references, ranges.
+    pub fn validate(&self, label: &str) -> Result<(), CaseError> {
+        let c = Checker {
+            label,
+            d: self.dimension,
+        };
+        if c.d != 2 {
+            let msg = "only 2D is supported in this version (3D is planned)";
+            return c.fail("dimension", c.d.to_string(), msg);
+        }
+        self.check_domain_and_particles(&c)?;
+        self.check_time_and_output(&c)?;
+        self.scheme(label)?;
+        self.check_phases(&c)?;
+        if self.fluid.is_empty() {
+            return c.fail("fluid", "[]", "at least one fluid region is needed");
+        }
+        for (k, f) in self.fluid.iter().enumerate() {
+            self.check_region(&c, k, f)?;
+        }
+        for (k, w) in self.walls.iter().enumerate() {
+            c.shape(&format!("walls.{k}.shape"), &w.shape, true)?;
+        }
+        self.check_probes_and_breakdown(&c)
+    }
+
+    fn check_domain_and_particles(&self, c: &Checker) -> Result<(), CaseError> {
+        c.vector("domain.min", &self.domain.min)?;
+        c.vector("domain.max", &self.domain.max)?;
+        if (0..c.d).any(|k| self.domain.max[k] <= self.domain.min[k]) {
+            let msg = "must exceed domain.min in every component";
+            return c.fail("domain.max", format!("{:?}", self.domain.max), msg);
+        }
+        let l0 = self.particles.spacing;
+        c.positive("particles.spacing", l0)?;
+        for (f, v) in [
+            ("particles.re_grad", self.particles.re_grad),
+            ("particles.re_lap", self.particles.re_lap),
+        ] {
+            c.require(v > 1.0 && v <= 6.0, f, v, "must lie in (1, 6] (units of spacing)")?;
+        }
+        let (max, min) = (&self.domain.max, &self.domain.min);
+        let sites: f64 = max.iter().zip(min).map(|(a, b)| (a - b) / l0).product();
+        let msg = "too fine for the domain (more than 5e8 lattice sites)";
+        c.require(sites <= MAX_LATTICE_SITES, "particles.spacing", l0, msg)?;
+        c.vector("physics.gravity", &self.physics.gravity)
+    }
+
+    fn check_time_and_output(&self, c: &Checker) -> Result<(), CaseError> {
+        let t = &self.time;
+        c.positive("time.end", t.end)?;
+        let courant_ok = t.courant > 0.0 && t.courant <= 1.0;
+        c.require(courant_ok, "time.courant", t.courant, "must lie in (0, 1]")?;
+        for (f, v) in [("time.dt_max", t.dt_max), ("time.dt_fixed", t.dt_fixed)] {
+            if let Some(v) = v {
+                c.positive(f, v)?;
+            }
+        }
+        let i = self.output.interval;
+        c.require(i >= 0.0, "output.interval", i, "must be zero or positive")?;
+        let tol = self.solver.tolerance;
+        c.require(tol > 0.0 && tol < 1.0, "solver.tolerance", tol, "must lie in (0, 1)")
+    }
+
+    fn check_phases(&self, c: &Checker) -> Result<(), CaseError> {
+        if self.phases.is_empty() {
+            return c.fail("phases", "[]", "at least one phase is needed");
+        }
+        for (k, p) in self.phases.iter().enumerate() {
+            c.positive(&format!("phases.{k}.density"), p.density)?;
+            let nu_ok = p.viscosity >= 0.0 && p.viscosity.is_finite();
+            let field = format!("phases.{k}.viscosity");
+            c.require(nu_ok, &field, p.viscosity, "must be zero or positive")?;
+            if self.phases[..k].iter().any(|q| q.name == p.name) {
+                let field = format!("phases.{k}.name");
+                return c.fail(&field, format!("{:?}", p.name), "duplicate phase name");
+            }
+        }
+        Ok(())
+    }
+
+    fn check_region(&self, c: &Checker, k: usize, f: &FluidSpec) -> Result<(), CaseError> {
+        let at = |s: &str| format!("fluid.{k}.{s}");
+        if !self.phases.iter().any(|p| p.name == f.phase) {
+            return c.fail(&at("phase"), format!("{:?}", f.phase), "no phase of this name");
+        }
+        c.shape(&at("shape"), &f.shape, false)?;
+        let (lo, hi) = shape_bounds(&f.shape);
+        let (dmin, dmax) = (&self.domain.min, &self.domain.max);
+        if (0..c.d).any(|i| lo[i] < dmin[i] - 1e-12 || hi[i] > dmax[i] + 1e-12) {
+            let msg = "region lies (partly) outside the domain";
+            return c.fail(&at("shape"), format!("{lo:?}..{hi:?}"), msg);
+        }
+        match &f.velocity {
+            Some(VelocitySpec::Uniform { value }) => c.vector(&at("velocity.value"), value)?,
+            Some(VelocitySpec::Rotation { center, omega }) => {
+                c.vector(&at("velocity.center"), center)?;
+                c.require(omega.is_finite(), &at("velocity.omega"), *omega, "must be finite")?;
+            }
+            Some(VelocitySpec::Affine { u0, x0, a }) => {
+                c.vector(&at("velocity.u0"), u0)?;
+                c.vector(&at("velocity.x0"), x0)?;
+                if a.len() != c.d {
+                    let msg = format!("expected {} rows", c.d);
+                    return c.fail(&at("velocity.a"), format!("{a:?}"), &msg);
+                }
+                for row in a {
+                    c.vector(&at("velocity.a"), row)?;
+                }
+            }
+            None => {}
+        }
+        if let Some(PressureSpec::SquarePatch { center, side, .. }) = &f.pressure {
+            c.vector(&at("pressure.center"), center)?;
+            c.positive(&at("pressure.side"), *side)?;
+        }
+        Ok(())
+    }
+
+    fn check_probes_and_breakdown(&self, c: &Checker) -> Result<(), CaseError> {
+        for (k, p) in self.probes.iter().enumerate() {
+            c.vector(&format!("probes.{k}.position"), &p.position)?;
+        }
+        if let Some(ValidationSpec::Hydrostatic { probe, .. }) = &self.validation {
+            if !self.probes.iter().any(|p| &p.name == probe) {
+                return c.fail("validation.probe", format!("{probe:?}"), "no probe of this name");
+            }
+        }
+        let m = self.breakdown.min_pair_distance;
+        let field = "breakdown.min_pair_distance";
+        c.require((0.0..1.0).contains(&m), field, m, "must lie in [0, 1)")
     }
 }

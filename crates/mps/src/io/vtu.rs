@@ -1,7 +1,6 @@
 //! VTU particle files (unstructured grid, one vertex cell per particle, raw appended binary
 //! data) with a `.pvd` index for ParaView, written from and read back into the particle field
-//! registry. Hand-written: measured to be faster than a general VTK crate for this one layout
-//! (docs/decisions.md, "VTU writer").
+//! registry. Hand-written for this one layout (docs/decisions.md, "VTU writer").
 
 use crate::particles::{Column, Particles};
 

@@ -15,17 +15,14 @@
 //! One application is a symmetric V(1,1)-cycle with a Chebyshev polynomial smoother in
 //! `D^-1 A` (parallel, and the same polynomial before and after the coarse correction, so
 //! the cycle is a symmetric positive-definite operator as CG needs). Why smoothed
-//! aggregation and not Ruge-Stueben: the MPS Laplacian has 20-30 neighbours per row
-//! (re = 3.1 l0); classical coarsening keeps about half the points per level and the
-//! operator complexity grows with the stencil, while aggregation coarsens by about 1/9 per
-//! level in 2D and keeps the coarse stencils compact.
+//! aggregation, and the parameters: docs/decisions.md, "AMG parameters".
 
 use super::pcg::Precondition;
 use super::sparse::{spgemm, transpose, CsrMatrix};
 use rayon::prelude::*;
 use std::sync::Mutex;
 
-/// Parameters of the AMG hierarchy.
+/// Parameters of the AMG hierarchy (defaults measured: docs/decisions.md, "AMG parameters").
 #[derive(Clone, Copy, Debug)]
 pub struct AmgParams {
     /// Strength-of-connection threshold `theta` (dimensionless).
@@ -101,7 +98,12 @@ impl Clone for Amg {
     }
 }
 
-/// Largest eigenvalue of `D^-1 A` by power iteration from a fixed start vector.
+/// Power iterations for `lambda_max` (an estimate suffices: it is padded by 10 %, and the
+/// Chebyshev smoother only needs an upper bound; docs/decisions.md, "AMG parameters").
+const POWER_ITERATIONS: usize = 15;
+
+/// Largest eigenvalue of `D^-1 A` by power iteration from a fixed start vector, padded by
+/// 10 % so it bounds the spectrum from above.
 fn lambda_max(a: &CsrMatrix, inv_diag: &[f64]) -> f64 {
     let n = a.n();
     if n == 0 {
@@ -113,7 +115,7 @@ fn lambda_max(a: &CsrMatrix, inv_diag: &[f64]) -> f64 {
         .collect();
     let mut w = vec![0.0; n];
     let mut lambda = 1.0;
-    for _ in 0..15 {
+    for _ in 0..POWER_ITERATIONS {
         a.spmv(&v, &mut w);
         w.par_iter_mut().zip(inv_diag).for_each(|(x, d)| *x *= d);
         // Rayleigh quotient in the D inner product: (v, D D^-1 A v) / (v, D v).

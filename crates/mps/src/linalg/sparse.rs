@@ -4,7 +4,8 @@
 
 use rayon::prelude::*;
 
-/// Elements per chunk of a deterministic parallel reduction.
+/// Elements per chunk of a deterministic parallel reduction (fixed, so results do not depend
+/// on the thread count: docs/decisions.md, "Parallel chunk sizes").
 pub const CHUNK: usize = 4096;
 
 /// A square sparse matrix in compressed-sparse-row form with `u32` column indices.

@@ -5,9 +5,9 @@
 //! summed over neighbours within re_grad that carry pressure. `C_i = d I` without gradient
 //! correction, the GC tensor with it. The acceleration is `a_i = -sum(...)`.
 
+use super::density::DensityAverage;
 use super::kernel::Kernels;
 use super::operators::gradient_correction;
-use super::scheme::Scheme;
 use crate::particles::{Matrix, Vector, View};
 use serde::{Deserialize, Serialize};
 
@@ -31,6 +31,21 @@ pub enum GradientDensity {
     Pair,
     /// The particle's own density `rho_i`.
     Own,
+}
+
+/// The pressure-gradient model of a scheme and its options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PressureGradient {
+    /// The model.
+    pub model: GradientModel,
+    /// Gradient correction (Khayyer & Gotoh 2011).
+    pub correction: bool,
+    /// GC fallback threshold (fraction of the interior moment-matrix determinant).
+    pub gc_min_determinant: f64,
+    /// Which density divides the gradient.
+    pub density: GradientDensity,
+    /// How the pair density is formed.
+    pub average: DensityAverage,
 }
 
 /// Minimum pressure `p_hat_i = min(p_i, min_j p_j)` (Pa) over neighbours within `re` (m) that
@@ -64,16 +79,16 @@ pub fn correction_tensor<const D: usize>(
     v: &View<D>,
     carries: &[bool],
     k: &Kernels,
-    s: &Scheme,
+    g: &PressureGradient,
 ) -> Matrix<D> {
-    if s.gradient_correction {
+    if g.correction {
         gradient_correction(
             i,
             v.pos,
             v.neighbors,
             &k.grad,
             |j| carries[j],
-            s.gc_min_determinant,
+            g.gc_min_determinant,
         )
     } else {
         Matrix::scaled_identity(D as f64)
@@ -89,20 +104,20 @@ pub fn pressure_acceleration<const D: usize>(
     ph: &[f64],
     carries: &[bool],
     k: &Kernels,
-    s: &Scheme,
+    g: &PressureGradient,
 ) -> Vector<D> {
-    let c = correction_tensor(i, v, carries, k, s);
+    let c = correction_tensor(i, v, carries, k, g);
     let rho_i = v.density[i];
     let mut acc = Vector::zero();
     for q in v.pairs(i, k.grad.re) {
         if !carries[q.j] {
             continue;
         }
-        let rho = match s.gradient_density {
-            GradientDensity::Pair => s.pair_density(rho_i, v.density[q.j]),
+        let rho = match g.density {
+            GradientDensity::Pair => g.average.of(rho_i, v.density[q.j]),
             GradientDensity::Own => rho_i,
         };
-        let dp = pair_difference(s.gradient, p, ph, i, q.j);
+        let dp = pair_difference(g.model, p, ph, i, q.j);
         acc += c.mul_vec(&q.xij) * (dp * q.w / (q.r2 * rho));
     }
     acc * (-1.0 / k.grad.n0)
@@ -111,10 +126,11 @@ pub fn pressure_acceleration<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::numerics::scheme::Scheme;
     use crate::particles::view::Cloud;
 
-    fn scheme(name: &str) -> Scheme {
-        Scheme::preset(name).unwrap()
+    fn scheme(name: &str) -> PressureGradient {
+        Scheme::preset(name).unwrap().gradient
     }
 
     /// CMPS pair terms are antisymmetric: the total force and torque vanish to round-off on a

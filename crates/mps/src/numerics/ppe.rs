@@ -21,7 +21,7 @@ use crate::linalg::CsrMatrix;
 use crate::particles::{Kind, Vector, View, NONE};
 use rayon::prelude::*;
 
-/// Rows per chunk of the parallel assembly.
+/// Rows per chunk of the parallel assembly (docs/decisions.md, "Parallel chunk sizes").
 const CHUNK: usize = 256;
 
 /// The assembled PPE.
@@ -66,7 +66,7 @@ impl<const D: usize> Rows<'_, D> {
         let coef = 2.0 * D as f64 / (k.lap.lambda * k.lap.n0);
         let rho_i = v.density[i];
         let mut diag = s.compressibility / (self.dt * self.dt);
-        let mut bi = source(i, v, k, s, self.dt);
+        let mut bi = source(i, v, k, &s.source, self.dt);
         let mut n_lap = 0.0;
         entries.clear();
         for q in v.pairs(i, k.lap.re) {

@@ -4,8 +4,8 @@
 
 use super::collision::Collision;
 use super::density::DensityAverage;
-use super::gradient::{GradientDensity, GradientModel};
-use super::source::{DriftControl, HsNormalization, SourceModel};
+use super::gradient::{GradientDensity, GradientModel, PressureGradient};
+use super::source::{DriftControl, HsNormalization, PpeSource, SourceModel};
 use super::stabilization::{DsWeighting, DynamicStabilization};
 use super::surface::number_density::NumberDensity;
 use super::surface::SurfaceDetector;
@@ -16,22 +16,10 @@ use super::walls::WallPressure;
 pub struct Scheme {
     /// Preset name it started from.
     pub name: String,
-    /// Pressure-gradient model.
-    pub gradient: GradientModel,
-    /// Gradient correction (Khayyer & Gotoh 2011).
-    pub gradient_correction: bool,
-    /// GC fallback threshold (fraction of the interior moment-matrix determinant).
-    pub gc_min_determinant: f64,
-    /// PPE source.
-    pub source: SourceModel,
-    /// HS normalisation.
-    pub hs_normalization: HsNormalization,
-    /// Relaxation coefficient on the PND source (dimensionless).
-    pub pnd_relaxation: f64,
-    /// Drift control.
-    pub drift: DriftControl,
-    /// Drift coefficient `gamma` (dimensionless).
-    pub gamma: f64,
+    /// Pressure-gradient model and options.
+    pub gradient: PressureGradient,
+    /// PPE source and its drift control.
+    pub source: PpeSource,
     /// Clamp negative pressure to zero.
     pub clamp_negative_pressure: bool,
     /// Free-surface detector.
@@ -40,10 +28,8 @@ pub struct Scheme {
     pub wall_surface_test: bool,
     /// PPE rows count their missing neighbourhood as air at p = 0.
     pub air_ghosts: bool,
-    /// Pair density average.
+    /// Pair density average (PPE; the gradient keeps its own copy).
     pub density_average: DensityAverage,
-    /// Density in the gradient.
-    pub gradient_density: GradientDensity,
     /// Smoothed density in the PPE coefficient and the gradient.
     pub density_smoothing: bool,
     /// Wall and dummy pressure model.
@@ -143,18 +129,24 @@ impl Preset {
         let hs = self.source == SourceModel::Hs;
         Scheme {
             name: self.name.to_string(),
-            gradient: self.gradient,
-            gradient_correction: self.gradient_correction,
-            gc_min_determinant: defaults::GC_MIN_DETERMINANT,
-            source: self.source,
-            hs_normalization: HsNormalization::Consistent,
-            pnd_relaxation: defaults::PND_RELAXATION,
-            drift: if hs {
-                DriftControl::Gamma
-            } else {
-                DriftControl::None
+            gradient: PressureGradient {
+                model: self.gradient,
+                correction: self.gradient_correction,
+                gc_min_determinant: defaults::GC_MIN_DETERMINANT,
+                density: GradientDensity::Pair,
+                average: DensityAverage::Arithmetic,
             },
-            gamma: defaults::GAMMA,
+            source: PpeSource {
+                model: self.source,
+                hs_normalization: HsNormalization::Consistent,
+                pnd_relaxation: defaults::PND_RELAXATION,
+                drift: if hs {
+                    DriftControl::Gamma
+                } else {
+                    DriftControl::None
+                },
+                gamma: defaults::GAMMA,
+            },
             clamp_negative_pressure: self.clamp_negative_pressure,
             surface: SurfaceDetector::NumberDensity(NumberDensity::default()),
             // Both on for the HS presets, off for plain MPS: docs/decisions.md, "Wall surface
@@ -162,7 +154,6 @@ impl Preset {
             wall_surface_test: hs,
             air_ghosts: hs,
             density_average: DensityAverage::Arithmetic,
-            gradient_density: GradientDensity::Pair,
             density_smoothing: false,
             wall_pressure: WallPressure::Extrapolated,
             compressibility: 0.0,
@@ -200,20 +191,21 @@ mod tests {
     fn presets_follow_the_design_table() {
         let m = Scheme::preset("MPS").unwrap();
         assert_eq!(
-            (m.gradient, m.source, m.gradient_correction, m.ds.is_some()),
+            (m.gradient.model, m.source.model, m.gradient.correction, m.ds.is_some()),
             (GradientModel::Original, SourceModel::Pnd, false, false)
         );
         assert!(m.collision.is_some() && m.clamp_negative_pressure);
         let c = Scheme::preset("CMPS-HS").unwrap();
         assert_eq!(
-            (c.gradient, c.source),
+            (c.gradient.model, c.source.model),
             (GradientModel::Cmps, SourceModel::Hs)
         );
         let g = Scheme::preset("MPS-HS-GC").unwrap();
-        assert!(g.gradient_correction && g.ds.is_none() && g.gradient == GradientModel::Taylor);
+        assert!(g.gradient.correction && g.ds.is_none());
+        assert_eq!(g.gradient.model, GradientModel::Taylor);
         let d = Scheme::preset("MPS-HS-GC-DS").unwrap();
-        assert!(d.gradient_correction && d.ds.is_some() && d.collision.is_none());
-        assert_eq!(d.drift, DriftControl::Gamma);
+        assert!(d.gradient.correction && d.ds.is_some() && d.collision.is_none());
+        assert_eq!(d.source.drift, DriftControl::Gamma);
         assert_eq!(d.ds.unwrap().alpha, 0.9);
         assert!(Scheme::preset("SPH").is_none());
     }

@@ -3,7 +3,6 @@
 //! (2009), and the density-drift controls added to it.
 
 use super::kernel::Kernels;
-use super::scheme::Scheme;
 use crate::particles::{Kind, View};
 use serde::{Deserialize, Serialize};
 
@@ -40,6 +39,21 @@ pub enum DriftControl {
     Ecs,
 }
 
+/// The PPE source of a scheme and its options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PpeSource {
+    /// The model.
+    pub model: SourceModel,
+    /// HS normalisation.
+    pub hs_normalization: HsNormalization,
+    /// Relaxation coefficient on the PND source (dimensionless).
+    pub pnd_relaxation: f64,
+    /// Drift control on the HS source.
+    pub drift: DriftControl,
+    /// Drift coefficient `gamma` (dimensionless).
+    pub gamma: f64,
+}
+
 /// `sum_{j} (re/r^3) (r_ij . u_ij)` over neighbours within re_grad (1/s): minus the rate of
 /// change of the number density, `-Dn_i/Dt` (Khayyer & Gotoh 2009).
 #[inline]
@@ -55,10 +69,10 @@ pub fn hs_sum<const D: usize>(i: usize, v: &View<D>, re: f64) -> f64 {
 /// - PND: `alpha (n*_i - n0)/(n0 dt^2)`, `alpha` the relaxation coefficient;
 /// - HS: `-(norm/dt) sum_j (re/r^3)(r_ij . u*_ij)`, `norm = d/h0` (consistent) or `1/n0`;
 /// - drift control on fluid particles: `+ gamma (n*_i - n0)/(n0 dt^2)`, or ECS.
-pub fn source<const D: usize>(i: usize, v: &View<D>, k: &Kernels, s: &Scheme, dt: f64) -> f64 {
+pub fn source<const D: usize>(i: usize, v: &View<D>, k: &Kernels, s: &PpeSource, dt: f64) -> f64 {
     let n0 = k.grad.n0;
     let pnd = (v.number_density[i] - n0) / (n0 * dt * dt);
-    match s.source {
+    match s.model {
         SourceModel::Pnd => s.pnd_relaxation * pnd,
         SourceModel::Hs => {
             let sum = hs_sum(i, v, k.grad.re);
@@ -111,7 +125,9 @@ mod tests {
         let cloud = Cloud::new(pos, vel, vec![1000.0; n], k.grad.n0, 3.1 * l0);
         let f = cloud.view();
         let dt = 1e-3;
-        let mut s = Scheme::preset("MPS-HS-GC").unwrap();
+        let mut s = crate::numerics::scheme::Scheme::preset("MPS-HS-GC")
+            .unwrap()
+            .source;
         // The source is -(1/rho) lap p; with div u = 2 eps, rho * source = -rho div u / dt.
         let b = source(c, &f, &k, &s, dt) * 1000.0;
         let want = -1000.0 * 2.0 * eps / dt;

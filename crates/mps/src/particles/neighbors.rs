@@ -147,6 +147,7 @@ pub fn build_neighbor_list<const D: usize>(points: &[Vector<D>], cutoff: f64) ->
     let grid = CellGrid::build(points, cutoff);
     let n = points.len();
     let c2 = cutoff * cutoff;
+    // Particles per parallel work unit (docs/decisions.md, "Parallel chunk sizes").
     const CHUNK: usize = 512;
     let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()

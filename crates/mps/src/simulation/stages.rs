@@ -256,7 +256,7 @@ impl<const D: usize> Simulation<D> {
         let vc = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
         let (k, s) = (&self.kernels, &self.scheme);
         let n = pred.pos.len();
-        let ph: Vec<f64> = if s.gradient == GradientModel::Taylor {
+        let ph: Vec<f64> = if s.gradient.model == GradientModel::Taylor {
             Vec::new()
         } else {
             (0..n)
@@ -268,7 +268,7 @@ impl<const D: usize> Simulation<D> {
             .into_par_iter()
             .map(|i| {
                 if v.kind[i] == Kind::Fluid {
-                    pressure_acceleration(i, &vc, pressure, &ph, carries, k, s)
+                    pressure_acceleration(i, &vc, pressure, &ph, carries, k, &s.gradient)
                 } else {
                     Vector::zero()
                 }
