@@ -20,13 +20,31 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("input", &["particles", "numerics", "linalg", "error"]),
     (
         "simulation",
-        &["particles", "numerics", "linalg", "input", "error", "parallel"],
+        &[
+            "particles",
+            "numerics",
+            "linalg",
+            "input",
+            "error",
+            "parallel",
+        ],
     ),
-    ("analysis", &["particles", "numerics", "input", "simulation", "error"]),
+    (
+        "analysis",
+        &["particles", "numerics", "input", "simulation", "error"],
+    ),
     ("io", &["particles", "simulation", "input", "error"]),
     (
         "run",
-        &["particles", "numerics", "input", "simulation", "analysis", "io", "error"],
+        &[
+            "particles",
+            "numerics",
+            "input",
+            "simulation",
+            "analysis",
+            "io",
+            "error",
+        ],
     ),
 ];
 
@@ -78,7 +96,12 @@ fn names_after<'a>(text: &'a str, prefix: &str) -> Vec<&'a str> {
 /// The top-level folder (or file) of a path below `src`.
 fn folder_of(path: &Path) -> String {
     let rel = path.strip_prefix(src()).unwrap();
-    let first = rel.components().next().unwrap().as_os_str().to_string_lossy();
+    let first = rel
+        .components()
+        .next()
+        .unwrap()
+        .as_os_str()
+        .to_string_lossy();
     first.trim_end_matches(".rs").to_string()
 }
 
@@ -100,7 +123,11 @@ fn folders_depend_on_each_other_one_way() {
             }
         }
     }
-    assert!(bad.is_empty(), "dependencies against the architecture:\n{}", bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "dependencies against the architecture:\n{}",
+        bad.join("\n")
+    );
     // And the allowed graph itself has no cycle.
     let edges: Vec<(String, String)> = ALLOWED
         .iter()
@@ -218,5 +245,9 @@ fn functions_are_short_and_the_step_reads_as_a_list() {
             }
         }
     }
-    assert!(long.is_empty(), "functions over 100 lines:\n{}", long.join("\n"));
+    assert!(
+        long.is_empty(),
+        "functions over 100 lines:\n{}",
+        long.join("\n")
+    );
 }

@@ -263,7 +263,9 @@ impl SchemeSpec {
             relax > 0.0 && relax <= 1.0,
             "(0, 1]",
         )?;
-        let gc = self.gc_min_determinant.unwrap_or(s.gradient.gc_min_determinant);
+        let gc = self
+            .gc_min_determinant
+            .unwrap_or(s.gradient.gc_min_determinant);
         s.gradient.gc_min_determinant = check(
             label,
             "gc_min_determinant",

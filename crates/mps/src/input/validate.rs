@@ -63,7 +63,11 @@ impl Checker<'_> {
                 self.positive(&at("radius"), *radius)?;
             }
             ShapeSpec::Polygon { points } | ShapeSpec::Polyline { points, .. } => {
-                let need = if matches!(s, ShapeSpec::Polygon { .. }) { 3 } else { 2 };
+                let need = if matches!(s, ShapeSpec::Polygon { .. }) {
+                    3
+                } else {
+                    2
+                };
                 if points.len() < need {
                     let msg = format!("needs at least {need} points");
                     return self.fail(&at("points"), format!("{points:?}"), &msg);
@@ -123,7 +127,12 @@ impl Case {
             ("particles.re_grad", self.particles.re_grad),
             ("particles.re_lap", self.particles.re_lap),
         ] {
-            c.require(v > 1.0 && v <= 6.0, f, v, "must lie in (1, 6] (units of spacing)")?;
+            c.require(
+                v > 1.0 && v <= 6.0,
+                f,
+                v,
+                "must lie in (1, 6] (units of spacing)",
+            )?;
         }
         let (max, min) = (&self.domain.max, &self.domain.min);
         let sites: f64 = max.iter().zip(min).map(|(a, b)| (a - b) / l0).product();
@@ -145,7 +154,12 @@ impl Case {
         let i = self.output.interval;
         c.require(i >= 0.0, "output.interval", i, "must be zero or positive")?;
         let tol = self.solver.tolerance;
-        c.require(tol > 0.0 && tol < 1.0, "solver.tolerance", tol, "must lie in (0, 1)")
+        c.require(
+            tol > 0.0 && tol < 1.0,
+            "solver.tolerance",
+            tol,
+            "must lie in (0, 1)",
+        )
     }
 
     fn check_phases(&self, c: &Checker) -> Result<(), CaseError> {
@@ -168,7 +182,11 @@ impl Case {
     fn check_region(&self, c: &Checker, k: usize, f: &FluidSpec) -> Result<(), CaseError> {
         let at = |s: &str| format!("fluid.{k}.{s}");
         if !self.phases.iter().any(|p| p.name == f.phase) {
-            return c.fail(&at("phase"), format!("{:?}", f.phase), "no phase of this name");
+            return c.fail(
+                &at("phase"),
+                format!("{:?}", f.phase),
+                "no phase of this name",
+            );
         }
         c.shape(&at("shape"), &f.shape, false)?;
         let (lo, hi) = shape_bounds(&f.shape);
@@ -181,7 +199,12 @@ impl Case {
             Some(VelocitySpec::Uniform { value }) => c.vector(&at("velocity.value"), value)?,
             Some(VelocitySpec::Rotation { center, omega }) => {
                 c.vector(&at("velocity.center"), center)?;
-                c.require(omega.is_finite(), &at("velocity.omega"), *omega, "must be finite")?;
+                c.require(
+                    omega.is_finite(),
+                    &at("velocity.omega"),
+                    *omega,
+                    "must be finite",
+                )?;
             }
             Some(VelocitySpec::Affine { u0, x0, a }) => {
                 c.vector(&at("velocity.u0"), u0)?;
@@ -209,7 +232,11 @@ impl Case {
         }
         if let Some(ValidationSpec::Hydrostatic { probe, .. }) = &self.validation {
             if !self.probes.iter().any(|p| &p.name == probe) {
-                return c.fail("validation.probe", format!("{probe:?}"), "no probe of this name");
+                return c.fail(
+                    "validation.probe",
+                    format!("{probe:?}"),
+                    "no probe of this name",
+                );
             }
         }
         let m = self.breakdown.min_pair_distance;

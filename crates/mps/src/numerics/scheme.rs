@@ -191,7 +191,12 @@ mod tests {
     fn presets_follow_the_design_table() {
         let m = Scheme::preset("MPS").unwrap();
         assert_eq!(
-            (m.gradient.model, m.source.model, m.gradient.correction, m.ds.is_some()),
+            (
+                m.gradient.model,
+                m.source.model,
+                m.gradient.correction,
+                m.ds.is_some()
+            ),
             (GradientModel::Original, SourceModel::Pnd, false, false)
         );
         assert!(m.collision.is_some() && m.clamp_negative_pressure);
