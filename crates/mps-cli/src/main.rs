@@ -181,7 +181,7 @@ impl Observer for Reporter {
         }
         let done = std::fs::read(path)
             .map_err(|e| e.to_string())
-            .and_then(|b| mps_render::Frame::from_vtu(&b))
+            .and_then(|b| mps_render::Frame::from_vtu(&b, path).map_err(|e| e.to_string()))
             .and_then(|frame| {
                 let dir = path.parent().unwrap_or(Path::new(".")).join("figures");
                 std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;

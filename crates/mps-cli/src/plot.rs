@@ -25,6 +25,25 @@ pub fn points(cols: &[Vec<f64>], x: usize, y: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// The y-axis label of a `metrics.csv` column, with its unit.
+pub fn metric_label(name: &str) -> String {
+    let unit = match name {
+        "dt" => "s",
+        "kinetic_energy" | "potential_energy" => "J (per m depth)",
+        "momentum_x" | "momentum_y" => "kg m/s (per m depth)",
+        "angular_momentum" => "kg m^2/s (per m depth)",
+        "min_pair_distance_l0" => "l0",
+        "max_speed" | "rms_speed" => "m/s",
+        "nd_mean" | "nd_spread" => "n/n0",
+        _ => "",
+    };
+    if unit.is_empty() {
+        name.to_string()
+    } else {
+        format!("{name} ({unit})")
+    }
+}
+
 /// A chart on a linear time axis.
 pub fn time_chart(title: &str, y_label: &str, series: Vec<Series>) -> Chart {
     Chart {
@@ -66,7 +85,8 @@ pub fn run_charts(dir: &Path) -> Result<Vec<(String, Chart)>, Failure> {
                     series.push(line("initial (exact)", vec![*first, (last.0, first.1)]));
                 }
             }
-            charts.push((format!("metric_{name}"), time_chart(name, name, series)));
+            let chart = time_chart(name, &metric_label(name), series);
+            charts.push((format!("metric_{name}"), chart));
         }
     }
     if let Some(Table { columns: cols, .. }) = table("dam_break_front.csv")? {

@@ -53,7 +53,7 @@ pub struct RenderArgs {
 /// Reads the frame of VTU file `path`; an unreadable file is bad input naming it.
 pub fn read_frame(path: &Path) -> Result<Frame, Failure> {
     let bytes = std::fs::read(path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
-    Frame::from_vtu(&bytes).map_err(|e| bad(format!("{}: {e}", path.display())))
+    Ok(Frame::from_vtu(&bytes, path)?)
 }
 
 /// The `(time, file)` snapshots listed in a run folder's `particles.pvd`.

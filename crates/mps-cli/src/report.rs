@@ -253,7 +253,8 @@ fn compare_charts(dir: &Path, schemes: &[String]) -> Result<Vec<Block>, Failure>
                 Some(line(s, crate::plot::points(&t.columns, 0, k)))
             })
             .collect();
-        let svg = line_chart_svg(&time_chart(metric, metric, series)).map_err(bad)?;
+        let chart = time_chart(metric, &crate::plot::metric_label(metric), series);
+        let svg = line_chart_svg(&chart).map_err(bad)?;
         blocks.push(Block::Svg(format!("{metric} per scheme"), svg));
     }
     Ok(blocks)

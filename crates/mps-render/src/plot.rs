@@ -103,18 +103,21 @@ where
             p.0.is_finite() && p.1.is_finite() && (!c.log_x || p.0 > 0.0) && (!c.log_y || p.1 > 0.0)
         };
         let pts: Vec<(f64, f64)> = s.points.iter().filter(ok).copied().collect();
-        let legend = if s.markers {
+        if s.markers {
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 4, col.filled())))
                 .map_err(|x| e(&x))?
+                .label(s.name.clone())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, col.filled()));
         } else {
             chart
                 .draw_series(LineSeries::new(pts, col.stroke_width(2)))
                 .map_err(|x| e(&x))?
-        };
-        legend
-            .label(s.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], col.stroke_width(3)));
+                .label(s.name.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], col.stroke_width(3))
+                });
+        }
     }
     chart
         .configure_series_labels()

@@ -5,6 +5,7 @@
 use crate::canvas::{Canvas, BLACK, WHITE};
 use crate::colormap::viridis;
 use mps::io::vtu::read_vtu;
+use std::path::Path;
 
 pub use mps::io::vtu::read_pvd;
 
@@ -106,13 +107,16 @@ impl Field {
 }
 
 impl Frame {
-    /// Reads a frame from the bytes of a VTU file written by the solver.
-    pub fn from_vtu(bytes: &[u8]) -> Result<Frame, String> {
-        let (p, time, spacing) = read_vtu::<2>(bytes)?;
+    /// Reads a frame from the bytes of VTU file `path` written by the solver.
+    pub fn from_vtu(bytes: &[u8], path: &Path) -> mps::error::Result<Frame> {
+        let (p, time, spacing) = read_vtu::<2>(bytes, path)?;
         let position: Vec<[f64; 2]> = p.position.iter().map(|x| x.0).collect();
         let spacing = spacing
             .or_else(|| estimate_spacing(&position))
-            .ok_or("no Spacing in field data and too few particles to estimate it")?;
+            .ok_or_else(|| mps::Error::Format {
+                path: path.to_path_buf(),
+                message: "no Spacing in field data and too few particles to estimate it".into(),
+            })?;
         Ok(Frame {
             time: time.unwrap_or(0.0),
             spacing,
@@ -491,7 +495,7 @@ mod tests {
         });
         p.pressure[0] = 42.0;
         let b = mps::io::vtu::vtu_bytes(&p, 0.75, 0.005);
-        let f = Frame::from_vtu(&b).unwrap();
+        let f = Frame::from_vtu(&b, Path::new("f.vtu")).unwrap();
         assert_eq!(f.time, 0.75);
         assert_eq!(f.spacing, 0.005);
         assert_eq!(f.position, vec![[0.1, 0.2]]);

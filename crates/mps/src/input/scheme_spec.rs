@@ -151,9 +151,9 @@ impl SchemeSpec {
             Some(Ok(d)) => Ok(d),
             Some(Err(e)) => Err(CaseError::new(
                 label,
-                format!("scheme.surface.{}", e.0),
-                e.1,
-                e.2,
+                format!("scheme.surface.{}", e.param),
+                e.value,
+                e.message,
             )),
             None => {
                 let msg = format!(

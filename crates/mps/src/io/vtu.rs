@@ -2,7 +2,9 @@
 //! data) with a `.pvd` index for ParaView, written from and read back into the particle field
 //! registry. Hand-written for this one layout (docs/decisions.md, "VTU writer").
 
+use crate::error::{Error, Result};
 use crate::particles::{Column, Particles};
+use std::path::Path;
 
 /// Serialises particles as a VTU file: every field the registry marks for output, the
 /// positions as points. `time` (s) and the particle spacing `spacing` (m) go into the
@@ -100,7 +102,7 @@ pub fn read_vtu_field_data(bytes: &[u8], name: &str) -> Option<f64> {
 /// Reads back the arrays of a VTU written by [`vtu_bytes`]: each named array (the points as
 /// `Points`, xyz) as f64 values. A truncated or inconsistent file is an error saying what is
 /// wrong, never a panic.
-pub fn read_vtu_arrays(bytes: &[u8]) -> Result<Vec<(String, Vec<f64>)>, String> {
+pub fn read_vtu_arrays(bytes: &[u8]) -> std::result::Result<Vec<(String, Vec<f64>)>, String> {
     let marker = b"<AppendedData encoding=\"raw\">\n_";
     let start = bytes
         .windows(marker.len())
@@ -147,13 +149,18 @@ pub fn read_vtu_arrays(bytes: &[u8]) -> Result<Vec<(String, Vec<f64>)>, String> 
     Ok(out)
 }
 
-/// Reads a VTU written by [`vtu_bytes`] back into particles, with its time (s) and spacing
-/// (m) when the file records them.
-pub fn read_vtu<const D: usize>(
-    bytes: &[u8],
-) -> Result<(Particles<D>, Option<f64>, Option<f64>), String> {
-    let arrays = read_vtu_arrays(bytes)?;
-    let p = Particles::<D>::from_columns(&arrays)?;
+/// A particle file read back: the particles, and the time (s) and spacing (m) when the file
+/// records them.
+pub type Snapshot<const D: usize> = (Particles<D>, Option<f64>, Option<f64>);
+
+/// Reads the bytes of VTU file `path` (written by [`vtu_bytes`]) back into particles.
+pub fn read_vtu<const D: usize>(bytes: &[u8], path: &Path) -> Result<Snapshot<D>> {
+    let bad = |message: String| Error::Format {
+        path: path.to_path_buf(),
+        message,
+    };
+    let arrays = read_vtu_arrays(bytes).map_err(bad)?;
+    let p = Particles::<D>::from_columns(&arrays).map_err(bad)?;
     Ok((
         p,
         read_vtu_field_data(bytes, "TimeValue"),
@@ -203,9 +210,10 @@ mod tests {
         });
         let b = vtu_bytes(&p, 0.5, 0.01);
         for cut in [b.len() / 2, b.len() - 60, 100] {
-            assert!(read_vtu::<2>(&b[..cut]).is_err(), "cut at {cut}");
+            let e = read_vtu::<2>(&b[..cut], Path::new("p.vtu")).unwrap_err();
+            assert!(e.to_string().starts_with("p.vtu: "), "cut at {cut}: {e}");
         }
-        let (q, t, s) = read_vtu::<2>(&b).unwrap();
+        let (q, t, s) = read_vtu::<2>(&b, Path::new("p.vtu")).unwrap();
         assert_eq!((q.position, t, s), (p.position, Some(0.5), Some(0.01)));
     }
 }

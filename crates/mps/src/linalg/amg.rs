@@ -500,32 +500,23 @@ mod tests {
 
     /// Five-point Laplacian on an `m x m` grid with Dirichlet boundaries.
     fn laplace_2d(m: usize) -> CsrMatrix {
-        let mut a = CsrMatrix::default();
-        a.row_ptr.push(0);
-        for y in 0..m {
-            for x in 0..m {
-                let i = y * m + x;
-                let mut push = |j: usize, v: f64| {
-                    a.col.push(j as u32);
-                    a.val.push(v);
-                };
-                if y > 0 {
-                    push(i - m, -1.0);
-                }
-                if x > 0 {
-                    push(i - 1, -1.0);
-                }
-                push(i, 4.0);
-                if x + 1 < m {
-                    push(i + 1, -1.0);
-                }
-                if y + 1 < m {
-                    push(i + m, -1.0);
-                }
-                a.row_ptr.push(a.col.len() as u32);
-            }
-        }
-        a
+        let stencil = [
+            (0, -1, -1.0),
+            (-1, 0, -1.0),
+            (0, 0, 4.0),
+            (1, 0, -1.0),
+            (0, 1, -1.0),
+        ];
+        CsrMatrix::from_rows((0..m * m).map(|i| {
+            let (x, y) = ((i % m) as i64, (i / m) as i64);
+            stencil
+                .iter()
+                .filter(|(dx, dy, _)| {
+                    (0..m as i64).contains(&(x + dx)) && (0..m as i64).contains(&(y + dy))
+                })
+                .map(|&(dx, dy, v)| (((y + dy) * m as i64 + x + dx) as u32, v))
+                .collect()
+        }))
     }
 
     #[test]

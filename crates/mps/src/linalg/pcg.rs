@@ -143,22 +143,17 @@ mod tests {
 
     /// 1D Laplacian with Dirichlet ends: tridiagonal [-1 2 -1].
     fn laplace_1d(n: usize) -> CsrMatrix {
-        let mut m = CsrMatrix::default();
-        m.row_ptr.push(0);
-        for i in 0..n {
+        CsrMatrix::from_rows((0..n).map(|i| {
+            let mut row = Vec::new();
             if i > 0 {
-                m.col.push(i as u32 - 1);
-                m.val.push(-1.0);
+                row.push((i as u32 - 1, -1.0));
             }
-            m.col.push(i as u32);
-            m.val.push(2.0);
+            row.push((i as u32, 2.0));
             if i + 1 < n {
-                m.col.push(i as u32 + 1);
-                m.val.push(-1.0);
+                row.push((i as u32 + 1, -1.0));
             }
-            m.row_ptr.push(m.col.len() as u32);
-        }
-        m
+            row
+        }))
     }
 
     #[test]

@@ -20,6 +20,21 @@ pub struct CsrMatrix {
 }
 
 impl CsrMatrix {
+    /// A matrix from its rows, each a list of `(column, value)` sorted by column.
+    pub fn from_rows(rows: impl IntoIterator<Item = Vec<(u32, f64)>>) -> CsrMatrix {
+        let mut m = CsrMatrix {
+            row_ptr: vec![0],
+            ..Default::default()
+        };
+        for row in rows {
+            for (c, v) in row {
+                m.col.push(c);
+                m.val.push(v);
+            }
+            m.row_ptr.push(m.col.len() as u32);
+        }
+        m
+    }
     /// Number of rows.
     pub fn n(&self) -> usize {
         self.row_ptr.len().saturating_sub(1)

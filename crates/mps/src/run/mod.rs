@@ -11,10 +11,12 @@ use crate::analysis::validation::{dam_break, early_acceleration, hydrostatic, Va
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
 use crate::input::case::ValidationSpec;
+use crate::io::series::Series;
 use crate::io::write_atomic;
 use crate::particles::Kind;
 use crate::simulation::{Breakdown, Simulation, StepReport};
 use recorder::Recorder;
+use serde::Serialize;
 use std::path::Path;
 use std::time::Instant;
 
@@ -137,19 +139,47 @@ fn step_loop<const D: usize>(
     Ok(t)
 }
 
+/// The record of a breakdown (`breakdown.toml`).
+#[derive(Serialize)]
+struct BreakdownRecord {
+    /// Simulated time of the last good state (s).
+    time: f64,
+    /// The step that failed.
+    step: u64,
+    /// The reason, as data.
+    reason: String,
+    /// The reason, in words.
+    message: String,
+    /// Ids of the particles involved.
+    particles: Vec<u32>,
+}
+
 /// `breakdown.toml`: time, step, reason and the particles involved.
 fn write_breakdown(b: &Breakdown, out: &Path) -> Result<()> {
-    let ids: Vec<String> = b.particles.iter().map(|i| i.to_string()).collect();
-    let record = format!(
-        "# The run broke down; the last good state is in breakdown_last_good_state.vtu.\n\
-         time = {:.9}\nstep = {}\nreason = {:?}\nmessage = {:?}\nparticles = [{}]\n",
-        b.time,
-        b.step,
-        format!("{:?}", b.reason),
-        b.to_string(),
-        ids.join(", ")
+    let record = BreakdownRecord {
+        time: b.time,
+        step: b.step,
+        reason: format!("{:?}", b.reason),
+        message: b.to_string(),
+        particles: b.particles.clone(),
+    };
+    let text = format!(
+        "# The run broke down; the last good state is in breakdown_last_good_state.vtu.\n{}",
+        toml::to_string(&record).expect("a breakdown record serialises")
     );
-    write_atomic(&out.join("breakdown.toml"), record.as_bytes())
+    write_atomic(&out.join("breakdown.toml"), text.as_bytes())
+}
+
+/// One row of `dam_break_front.csv`.
+#[derive(Serialize)]
+struct FrontRow {
+    #[serde(rename = "T")]
+    t: f64,
+    #[serde(rename = "Z_experiment")]
+    experiment: f64,
+    #[serde(rename = "Z_simulation")]
+    simulation: f64,
+    difference: f64,
 }
 
 /// Runs `sim` to its end time, writing into `out` (created if missing).
@@ -187,11 +217,17 @@ fn validate<const D: usize>(
     let result = match &case.validation {
         Some(ValidationSpec::DamBreak { column_width, .. }) => {
             let (result, rows) = dam_break(&rec.front_series, *column_width, g, sim.l0());
-            let mut csv = String::from("T,Z_experiment,Z_simulation,difference\n");
-            for (t, ze, zs) in &rows {
-                csv.push_str(&format!("{t:.3},{ze:.3},{zs:.4},{:.4}\n", zs - ze));
+            let mut csv = Series::create(&out.join("dam_break_front.csv"), None)?;
+            for &(t, experiment, simulation) in &rows {
+                let difference = simulation - experiment;
+                csv.push(&FrontRow {
+                    t,
+                    experiment,
+                    simulation,
+                    difference,
+                })?;
             }
-            write_atomic(&out.join("dam_break_front.csv"), csv.as_bytes())?;
+            csv.flush()?;
             Some(result)
         }
         Some(ValidationSpec::Hydrostatic {

@@ -186,13 +186,14 @@ impl<const D: usize> Simulation<D> {
         report.unknowns = sys.particle_of.len();
         let mut pressure = self.solve_pressure(sys, &mut report)?;
         // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization.
-        let t = Instant::now();
-        let carries = self.boundary_pressures(&pred, &surf, &mut pressure);
-        let acc = self.pressure_acceleration(&pred, &surf, &density, &pressure, &carries);
-        let (ds_acc, ds_active) = self.stabilize(&pred, &surf, &acc, dt);
-        report.ds_active = ds_active;
-        (report.min_pair_distance, report.close_pairs) = self.pair_metrics(&pred, &surf);
-        self.timers.add(Stage::Gradient, t.elapsed());
+        let (acc, ds_acc) = self.timed(Stage::Gradient, |s| {
+            let carries = s.boundary_pressures(&pred, &surf, &mut pressure);
+            let acc = s.pressure_acceleration(&pred, &surf, &density, &pressure, &carries);
+            let (ds_acc, ds_active) = s.stabilize(&pred, &surf, &acc, dt);
+            report.ds_active = ds_active;
+            (report.min_pair_distance, report.close_pairs) = s.pair_metrics(&pred, &surf);
+            (acc, ds_acc)
+        });
         // 6. Correction u = u* + dt a, r = r* + dt^2 a, and the breakdown checks.
         let min_pair = report.min_pair_distance;
         report.max_speed = self.timed(Stage::Correction, |s| {

@@ -91,42 +91,29 @@ impl PressureSolver {
         let t0 = Instant::now();
         let (tol, max_iter) = (self.tolerance, self.max_iterations);
         let mut report = SolveReport::default();
-        let kind = self.kind.for_size(sys.matrix.n());
-        let (result, solve) = match kind {
+        // `None`: the chosen preconditioner could not be built.
+        let attempt = match self.kind.for_size(sys.matrix.n()) {
             SolverKind::AmgCg => self.solve_amg(sys, x, t0, &mut report),
+            SolverKind::Ic0Cg => Ic0::new(&sys.matrix).map(|f| {
+                report.setup = t0.elapsed();
+                timed_pcg(sys, x, &f, tol, max_iter)
+            }),
             SolverKind::Cg => {
                 report.setup = t0.elapsed();
-                timed_pcg(sys, x, &Identity, tol, max_iter)
+                Some(timed_pcg(sys, x, &Identity, tol, max_iter))
             }
-            SolverKind::Ic0Cg => match Ic0::new(&sys.matrix) {
-                Some(f) => {
-                    report.setup = t0.elapsed();
-                    timed_pcg(sys, x, &f, tol, max_iter)
-                }
-                None => self.jacobi(sys, x, t0, &mut report),
-            },
-            _ => {
-                let pre = Jacobi::new(&sys.matrix);
-                report.setup = t0.elapsed();
-                timed_pcg(sys, x, &pre, tol, max_iter)
-            }
+            _ => None,
         };
+        let (result, solve) = attempt.unwrap_or_else(|| {
+            if self.kind.for_size(sys.matrix.n()) != SolverKind::JacobiCg {
+                self.fallbacks += 1;
+                report.fallback = true;
+            }
+            let pre = Jacobi::new(&sys.matrix);
+            report.setup = t0.elapsed();
+            timed_pcg(sys, x, &pre, tol, max_iter)
+        });
         self.finish(result, solve, report)
-    }
-
-    /// The Jacobi fall-back of a failed set-up, counted.
-    fn jacobi(
-        &mut self,
-        sys: &PressureSystem,
-        x: &mut [f64],
-        t0: Instant,
-        report: &mut SolveReport,
-    ) -> (Result<SolveStats, NotConverged>, Duration) {
-        self.fallbacks += 1;
-        report.fallback = true;
-        let pre = Jacobi::new(&sys.matrix);
-        report.setup = t0.elapsed();
-        timed_pcg(sys, x, &pre, self.tolerance, self.max_iterations)
     }
 
     fn finish(
@@ -152,7 +139,7 @@ impl PressureSolver {
         x: &mut [f64],
         t0: Instant,
         report: &mut SolveReport,
-    ) -> (Result<SolveStats, NotConverged>, Duration) {
+    ) -> Option<(Result<SolveStats, NotConverged>, Duration)> {
         let (tol, max_iter) = (self.tolerance, self.max_iterations);
         let last = self.last_iterations;
         let reusable = self.amg.as_ref().is_some_and(|c| {
@@ -165,24 +152,20 @@ impl PressureSolver {
             c.amg.refresh_fine(&sys.matrix);
             c.age += 1;
             report.setup = t0.elapsed();
-            return timed_pcg(sys, x, &c.amg, tol, max_iter);
+            return Some(timed_pcg(sys, x, &c.amg, tol, max_iter));
         }
         self.amg = None;
-        match Amg::new(&sys.matrix, AmgParams::default()) {
-            Some(amg) => {
-                report.setup = t0.elapsed();
-                let (r, solve) = timed_pcg(sys, x, &amg, tol, max_iter);
-                if let Ok(st) = r {
-                    self.amg = Some(AmgCache {
-                        particle_of: sys.particle_of.clone(),
-                        amg,
-                        setup_iterations: st.iterations,
-                        age: 0,
-                    });
-                }
-                (r, solve)
-            }
-            None => self.jacobi(sys, x, t0, report),
+        let amg = Amg::new(&sys.matrix, AmgParams::default())?;
+        report.setup = t0.elapsed();
+        let (r, solve) = timed_pcg(sys, x, &amg, tol, max_iter);
+        if let Ok(st) = r {
+            self.amg = Some(AmgCache {
+                particle_of: sys.particle_of.clone(),
+                amg,
+                setup_iterations: st.iterations,
+                age: 0,
+            });
         }
+        Some((r, solve))
     }
 }

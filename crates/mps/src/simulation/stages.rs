@@ -14,7 +14,6 @@ use crate::numerics::walls::{boundary_pressures, wall_densities};
 use crate::particles::neighbors::{build_neighbor_list, locality_order};
 use crate::particles::{Kind, NeighborList, Vector, View, NONE};
 use rayon::prelude::*;
-use std::time::Instant;
 
 /// Steps between reorderings of the particles along the cell list (memory locality; the
 /// AMG hierarchy is rebuilt after each: docs/decisions.md, "Reordering").
@@ -110,10 +109,10 @@ impl<const D: usize> Simulation<D> {
             return Err(BreakdownReason::NotFinite.into());
         }
         if 2.0 * max_move > self.skin {
-            let t = Instant::now();
-            self.neighbors = NeighborList::default();
-            self.neighbors = build_neighbor_list(&pred.pos, self.cutoff());
-            self.timers.add(Stage::Neighbors, t.elapsed());
+            self.timed(Stage::Neighbors, |s| {
+                s.neighbors = NeighborList::default();
+                s.neighbors = build_neighbor_list(&pred.pos, s.cutoff());
+            });
         }
         Ok(())
     }

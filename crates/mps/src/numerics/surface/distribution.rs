@@ -9,7 +9,7 @@
 //! neighbourhood still balanced around the particle (centroid deviation near zero), so the
 //! number-density test alone flags interior particles there; this one does not.
 
-use super::{parse_params, Detector, ParamError, SurfaceInput};
+use super::{check_open, parse_params, Detector, ParamError, SurfaceInput};
 use crate::numerics::pairs::pairs;
 use crate::particles::Vector;
 use serde::Deserialize;
@@ -40,20 +40,8 @@ impl Detector for Distribution {
 
     fn from_params(params: &toml::Table) -> Result<Self, ParamError> {
         let d: Distribution = parse_params(params)?;
-        if !(d.beta > 0.0 && d.beta < 1.0) {
-            return Err(ParamError(
-                "beta".into(),
-                d.beta.to_string(),
-                "must lie in (0, 1)".into(),
-            ));
-        }
-        if !(d.threshold > 0.0 && d.threshold < 2.0) {
-            return Err(ParamError(
-                "threshold".into(),
-                d.threshold.to_string(),
-                "must lie in (0, 2) (units of l0)".into(),
-            ));
-        }
+        check_open("beta", d.beta, 0.0, 1.0)?;
+        check_open("threshold", d.threshold, 0.0, 2.0)?;
         Ok(d)
     }
 

@@ -32,20 +32,43 @@ pub trait Detector: Sized + Clone + PartialEq + fmt::Debug {
     fn is_surface<const D: usize>(&self, i: usize, s: &SurfaceInput<D>) -> bool;
 }
 
-/// A bad detector parameter: (parameter, value, message).
+/// A bad detector parameter.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ParamError(pub String, pub String, pub String);
+pub struct ParamError {
+    /// The parameter's name.
+    pub param: String,
+    /// Its value as written.
+    pub value: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// `value` of parameter `param` must lie in the open interval `(lo, hi)`.
+pub fn check_open(param: &str, value: f64, lo: f64, hi: f64) -> Result<(), ParamError> {
+    if value > lo && value < hi {
+        return Ok(());
+    }
+    Err(ParamError {
+        param: param.into(),
+        value: value.to_string(),
+        message: format!("must lie in ({lo}, {hi})"),
+    })
+}
 
 /// Reads a detector's parameter struct from its table (unknown keys are errors).
 pub fn parse_params<P: serde::de::DeserializeOwned>(params: &toml::Table) -> Result<P, ParamError> {
     P::deserialize(toml::Value::Table(params.clone())).map_err(|e| {
         let msg = e.message().trim().replace('\n', " ");
-        let key = msg
+        let param = msg
             .split('`')
             .nth(1)
             .map(str::to_string)
             .unwrap_or_default();
-        ParamError(key, String::new(), msg)
+        ParamError {
+            param,
+            value: String::new(),
+            message: msg,
+        }
     })
 }
 

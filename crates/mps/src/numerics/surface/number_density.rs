@@ -2,7 +2,7 @@
 //! `n*_i < beta n0`, optionally also when it has fewer than `count_ratio` times the lattice
 //! number of neighbours within re_grad (a neighbour-count criterion as in PolyMPS).
 
-use super::{parse_params, Detector, ParamError, SurfaceInput};
+use super::{check_open, parse_params, Detector, ParamError, SurfaceInput};
 use crate::numerics::pairs::pairs;
 use serde::Deserialize;
 
@@ -37,21 +37,9 @@ impl Detector for NumberDensity {
 
     fn from_params(params: &toml::Table) -> Result<Self, ParamError> {
         let d: NumberDensity = parse_params(params)?;
-        if !(d.beta > 0.0 && d.beta < 1.0) {
-            return Err(ParamError(
-                "beta".into(),
-                d.beta.to_string(),
-                "must lie in (0, 1)".into(),
-            ));
-        }
+        check_open("beta", d.beta, 0.0, 1.0)?;
         if let Some(r) = d.count_ratio {
-            if !(r > 0.0 && r < 1.0) {
-                return Err(ParamError(
-                    "count_ratio".into(),
-                    r.to_string(),
-                    "must lie in (0, 1)".into(),
-                ));
-            }
+            check_open("count_ratio", r, 0.0, 1.0)?;
         }
         Ok(d)
     }
