@@ -26,3 +26,14 @@ pub fn tmp(name: &str) -> PathBuf {
 pub fn sim(name: &str, set: &[(&str, &str)]) -> Simulation<2> {
     Simulation::<2>::new(example(name, set), name).expect("builds")
 }
+
+/// Column `name` of a CSV file written by a run (read through the library's reader).
+pub fn column(path: &std::path::Path, name: &str) -> Vec<f64> {
+    let t = mps::io::series::read_table(path).expect("readable CSV");
+    let k = t
+        .header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("{}: no column {name}", path.display()));
+    t.columns[k].clone()
+}

@@ -2,7 +2,7 @@
 //! minute in release mode: `cargo test --release -- --ignored` (CI runs them).
 
 mod common;
-use common::{sim, tmp};
+use common::{column, sim, tmp};
 use mps::particles::Kind;
 use mps::run::{run, Silent};
 
@@ -49,11 +49,14 @@ fn dam_break_front_against_martin_moyce() {
     let dir = tmp("dam_break");
     let summary = run(&mut s, &dir, &mut Silent).unwrap();
     assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
-    let csv = std::fs::read_to_string(dir.join("dam_break_front.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+    let path = dir.join("dam_break_front.csv");
+    let (tt, exp, simz) = (
+        column(&path, "T"),
+        column(&path, "Z_experiment"),
+        column(&path, "Z_simulation"),
+    );
+    let rows: Vec<Vec<f64>> = (0..tt.len())
+        .map(|k| vec![tt[k], exp[k], simz[k]])
         .filter(|r: &Vec<f64>| r[0] <= 3.0)
         .collect();
     assert!(rows.len() >= 12, "{} points", rows.len());
@@ -86,11 +89,8 @@ fn square_patch_with_dynamic_stabilization() {
     assert!(ke.abs() < 0.05, "kinetic energy changed by {ke}");
     assert!(am.abs() < 0.02, "angular momentum changed by {am}");
     // Smallest pair distance over the whole run, from steps.csv.
-    let steps = std::fs::read_to_string(dir.join("steps.csv")).unwrap();
-    let min_pair = steps
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(7).unwrap().parse::<f64>().unwrap())
+    let min_pair = column(&dir.join("steps.csv"), "min_pair_distance_l0")
+        .into_iter()
         .fold(f64::MAX, f64::min);
     assert!(min_pair > 0.5, "closest pair {min_pair} l0");
 }
@@ -119,13 +119,8 @@ fn still_tank_with_gradient_correction_and_dynamic_stabilization() {
             summary.breakdown
         );
         let limit = 0.1 * (9.81f64 * 0.005).sqrt();
-        let metrics = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
-        let header: Vec<&str> = metrics.lines().next().unwrap().split(',').collect();
-        let col = header.iter().position(|h| *h == "rms_speed").unwrap();
-        let max_rms = metrics
-            .lines()
-            .skip(1)
-            .map(|l| l.split(',').nth(col).unwrap().parse::<f64>().unwrap())
+        let max_rms = column(&dir.join("metrics.csv"), "rms_speed")
+            .into_iter()
             .fold(0.0, f64::max);
         let discrete = 1000.0 * 9.81 * (0.3 - 0.0025);
         let mean = summary.validation[0].value;
@@ -152,13 +147,8 @@ fn two_layer_tank_stays_at_rest() {
     let dir = tmp("two_layer");
     let summary = run(&mut s, &dir, &mut Silent).unwrap();
     assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
-    let metrics = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
-    let header: Vec<&str> = metrics.lines().next().unwrap().split(',').collect();
-    let col = header.iter().position(|h| *h == "rms_speed").unwrap();
-    let max_rms = metrics
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(col).unwrap().parse::<f64>().unwrap())
+    let max_rms = column(&dir.join("metrics.csv"), "rms_speed")
+        .into_iter()
         .fold(0.0, f64::max);
     let g = &summary.groups[0];
     let moved = ((g.centroid.1 .0 - g.centroid.0 .0).powi(2)
@@ -227,20 +217,13 @@ fn settling_and_surfacing_groups() {
             // Group coherence: the fraction of group particles with no same-phase neighbour
             // at t = 0.5 s. Measured 0.07 with DS at alpha_DS = 1 - Courant = 0.97; with
             // Courant 0.1 and alpha_DS = 0.9 it was 0.26.
-            let text = std::fs::read_to_string(dir.join("groups.csv")).unwrap();
-            let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-            let col = header.iter().position(|h| *h == "stray_fraction").unwrap();
+            let groups = dir.join("groups.csv");
+            let (time, stray) = (column(&groups, "time"), column(&groups, "stray_fraction"));
             let at = |t: f64| {
-                text.lines()
-                    .skip(1)
-                    .map(|l| {
-                        l.split(',')
-                            .map(|v| v.parse::<f64>().unwrap())
-                            .collect::<Vec<_>>()
-                    })
-                    .min_by(|a, b| (a[0] - t).abs().total_cmp(&(b[0] - t).abs()))
-                    .map(|r| r[col])
-                    .unwrap()
+                let k = (0..time.len())
+                    .min_by(|&a, &b| (time[a] - t).abs().total_cmp(&(time[b] - t).abs()))
+                    .unwrap();
+                stray[k]
             };
             let (s05, s10) = (at(0.5), at(1.0));
             eprintln!("settling stray fraction: {s05:.3} at 0.5 s, {s10:.3} at 1 s");

@@ -1,6 +1,7 @@
 //! Stability metrics every run records (cases.md, "Stability metrics"), one row of
 //! `metrics.csv` per output.
 
+use super::surface::surface_counts;
 use crate::particles::Kind;
 use crate::simulation::Simulation;
 use rayon::prelude::*;
@@ -47,6 +48,13 @@ pub struct Metrics {
     pub ds_active: u64,
     /// Fluid particles on the free surface.
     pub surface_particles: usize,
+    /// Fluid particles flagged free surface that lie deep inside the body (about 2 l0 or
+    /// more, judged by geometry, not by the flag: `analysis::surface`).
+    pub false_surface: usize,
+    /// Flagged fluid particles with no unflagged fluid neighbour within re_grad.
+    pub surface_skin: usize,
+    /// Fluid particles with at most one fluid neighbour within re_grad.
+    pub isolated: usize,
 }
 
 impl Metrics {
@@ -120,6 +128,7 @@ impl Metrics {
             0.0
         };
         let r = &sim.last;
+        let sc = surface_counts(&sim.view(), l0, sim.kernels.grad.re);
         Metrics {
             time: sim.time,
             step: sim.step_count,
@@ -143,6 +152,9 @@ impl Metrics {
             rms_speed: if t.n > 0.0 { (t.u2 / t.n).sqrt() } else { 0.0 },
             ds_active: r.ds_active,
             surface_particles: t.surf,
+            false_surface: sc.false_surface,
+            surface_skin: sc.surface_skin,
+            isolated: sc.isolated,
         }
     }
 }

@@ -7,6 +7,7 @@ pub mod compare;
 pub mod groups;
 pub mod metrics;
 pub mod summary;
+pub mod surface;
 pub mod validation;
 
 pub use summary::{GroupSummary, RunSummary};
