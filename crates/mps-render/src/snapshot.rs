@@ -28,6 +28,8 @@ pub struct Frame {
     pub density: Vec<f64>,
     /// Phase index.
     pub phase: Vec<f64>,
+    /// Free-surface flag (1 on the surface).
+    pub free_surface: Vec<f64>,
 }
 
 /// Particle spacing (m) estimated as the median nearest-neighbour distance of up to 200
@@ -69,11 +71,13 @@ pub enum Field {
     Phase,
     /// Density (kg/m^3).
     Density,
+    /// The free-surface flag (0 or 1).
+    Surface,
 }
 
 impl Field {
     /// The field names as written on the command line.
-    pub const NAMES: [&'static str; 4] = ["pressure", "velocity", "phase", "density"];
+    pub const NAMES: [&'static str; 5] = ["pressure", "velocity", "phase", "density", "surface"];
 
     /// Parses `pressure`, `velocity`, `phase`, `density`.
     pub fn parse(s: &str) -> Option<Field> {
@@ -82,6 +86,7 @@ impl Field {
             "velocity" => Some(Field::Velocity),
             "phase" => Some(Field::Phase),
             "density" => Some(Field::Density),
+            "surface" => Some(Field::Surface),
             _ => None,
         }
     }
@@ -93,6 +98,7 @@ impl Field {
             Field::Velocity => "velocity",
             Field::Phase => "phase",
             Field::Density => "density",
+            Field::Surface => "surface",
         }
     }
     /// Name and unit for titles and colour bars.
@@ -102,6 +108,7 @@ impl Field {
             Field::Velocity => ("speed", "m/s"),
             Field::Phase => ("phase", "-"),
             Field::Density => ("density", "kg/m3"),
+            Field::Surface => ("free-surface flag", "-"),
         }
     }
 }
@@ -126,6 +133,7 @@ impl Frame {
             pressure: p.pressure,
             density: p.density,
             phase: p.phase.iter().map(|&v| v as f64).collect(),
+            free_surface: p.free_surface.iter().map(|&f| f as u8 as f64).collect(),
         })
     }
 
@@ -140,6 +148,7 @@ impl Frame {
                 .collect(),
             Field::Phase => self.phase.clone(),
             Field::Density => self.density.clone(),
+            Field::Surface => self.free_surface.clone(),
         }
     }
 
