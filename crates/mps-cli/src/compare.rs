@@ -183,21 +183,9 @@ fn comparison_figure(
         lo = lo.min(a0);
         hi = hi.max(b0);
     }
-    let bounds = {
-        let mut l = [f64::INFINITY; 2];
-        let mut h = [f64::NEG_INFINITY; 2];
-        let mut pad: f64 = 0.0;
-        for (_, _, f, _) in &grid {
-            pad = pad.max(2.0 * f.spacing);
-            for p in &f.position {
-                for k in 0..2 {
-                    l[k] = l[k].min(p[k]);
-                    h[k] = h[k].max(p[k]);
-                }
-            }
-        }
-        (!grid.is_empty()).then_some(([l[0] - pad, l[1] - pad], [h[0] + pad, h[1] + pad]))
-    };
+    // One frame for all panels: the union of each frame's fluid box (spray of a broken
+    // scheme beyond the 0.5-99.5th percentile does not shrink the others).
+    let bounds = mps_render::union_bounds(grid.iter().map(|(_, _, f, _)| f.bounds()));
     let panels: Vec<_> = grid
         .iter()
         .map(|(scheme, _, frame, broken)| {

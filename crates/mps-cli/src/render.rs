@@ -45,9 +45,17 @@ pub struct RenderArgs {
     /// Image width (px, 100 to 8000).
     #[arg(long, default_value = "900", value_parser = parse_width)]
     width: u32,
-    /// Fixed colour range `MIN,MAX` (default: each frame's range).
+    /// Fixed colour range `MIN,MAX` (default: each frame's 1st-99th percentile; with
+    /// --movie, over all frames).
     #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
     range: Option<(f64, f64)>,
+    /// Also write `figures/<field>.gif`: every chosen snapshot in one frame and one colour
+    /// range, as an animation.
+    #[arg(long)]
+    movie: bool,
+    /// Frames per second of the movie.
+    #[arg(long, default_value = "10", value_parser = clap::value_parser!(u16).range(1..=50))]
+    fps: u16,
 }
 
 /// Reads the frame of VTU file `path`; an unreadable file is bad input naming it.
@@ -70,6 +78,43 @@ pub fn snapshots(run_dir: &Path) -> Result<Vec<(f64, String)>, Failure> {
         return Err(bad(format!("{}: no snapshots listed", pvd.display())));
     }
     Ok(entries)
+}
+
+/// The animation of `chosen` snapshots: one frame (the union of the fluid boxes) and one
+/// colour range (the widest 1st-99th percentile range, unless given) for all.
+fn movie(a: &RenderArgs, chosen: &[(f64, String)], out: &Path) -> Result<PathBuf, Failure> {
+    let frames: Vec<Frame> = chosen
+        .par_iter()
+        .map(|(_, file)| read_frame(&a.run_dir.join(file)))
+        .collect::<Result<_, _>>()?;
+    let bounds = mps_render::union_bounds(frames.iter().map(Frame::bounds));
+    let range = a.range.or_else(|| {
+        frames
+            .iter()
+            .map(|f| f.range(a.field))
+            .reduce(|x, y| (x.0.min(y.0), x.1.max(y.1)))
+    });
+    let canvases: Vec<mps_render::Canvas> = frames
+        .par_iter()
+        .zip(chosen)
+        .map(|(frame, (_, file))| {
+            let opts = RenderOptions {
+                width: a.width,
+                field: a.field,
+                vectors: a.vectors,
+                range,
+                bounds,
+                breakdown: file.starts_with("breakdown"),
+                ..Default::default()
+            };
+            render_frame(frame, &opts)
+        })
+        .collect();
+    let gif = out.join(format!("{}.gif", a.field.name()));
+    let bytes =
+        mps_render::movie::gif_bytes(&canvases, 100 / a.fps).map_err(|e| io_error(&gif, e))?;
+    mps::io::write_atomic(&gif, &bytes)?;
+    Ok(gif)
 }
 
 pub fn cmd_render(a: RenderArgs) -> CmdResult {
@@ -109,6 +154,9 @@ pub fn cmd_render(a: RenderArgs) -> CmdResult {
         .collect();
     for w in written {
         println!("{}", w?.display());
+    }
+    if a.movie {
+        println!("{}", movie(&a, &chosen, &out)?.display());
     }
     Ok(ExitCode::SUCCESS)
 }

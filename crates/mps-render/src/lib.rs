@@ -11,4 +11,5 @@ pub mod report;
 pub mod snapshot;
 
 pub use canvas::Canvas;
-pub use snapshot::{compose, read_pvd, render_frame, Field, Frame, RenderOptions};
+pub use snapshot::{compose, read_pvd, render_frame, union_bounds, Field, Frame, RenderOptions};
+pub mod movie;

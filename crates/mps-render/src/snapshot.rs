@@ -152,21 +152,73 @@ impl Frame {
         }
     }
 
-    /// (min, max) of `field` over fluid particles.
+    /// The colour range of `field` over fluid particles: its 1st to 99th percentile, so that
+    /// a few spikes do not wash out the picture (the full range for the 0/1 flag and phase).
     pub fn range(&self, field: Field) -> (f64, f64) {
         let v = self.values(field);
-        let mut r = (f64::INFINITY, f64::NEG_INFINITY);
-        for (i, x) in v.iter().enumerate() {
-            if self.kind[i] == 0 && x.is_finite() {
-                r = (r.0.min(*x), r.1.max(*x));
-            }
+        let mut fluid: Vec<f64> = v
+            .iter()
+            .zip(&self.kind)
+            .filter(|(x, k)| **k == 0 && x.is_finite())
+            .map(|(x, _)| *x)
+            .collect();
+        if fluid.is_empty() {
+            return (0.0, 1.0);
         }
-        if !r.0.is_finite() {
-            (0.0, 1.0)
+        fluid.sort_by(f64::total_cmp);
+        let exact = matches!(field, Field::Surface | Field::Phase);
+        let q = |f: f64| fluid[((fluid.len() - 1) as f64 * f).round() as usize];
+        let (lo, hi) = if exact {
+            (q(0.0), q(1.0))
         } else {
-            r
+            (q(0.01), q(0.99))
+        };
+        if hi > lo {
+            (lo, hi)
+        } else {
+            (lo - 0.5, lo + 0.5)
         }
     }
+
+    /// The box (m) that frames the fluid: the 0.5th to 99.5th percentile of the fluid
+    /// positions per axis (spray far away does not shrink the picture), joined with the
+    /// walls' extent, padded by two spacings.
+    pub fn bounds(&self) -> ([f64; 2], [f64; 2]) {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for k in 0..2 {
+            let mut xs: Vec<f64> = (0..self.position.len())
+                .filter(|&i| self.kind[i] == 0)
+                .map(|i| self.position[i][k])
+                .collect();
+            xs.sort_by(f64::total_cmp);
+            if let (Some(_), n) = (xs.first(), xs.len()) {
+                lo[k] = xs[((n - 1) as f64 * 0.005).round() as usize];
+                hi[k] = xs[((n - 1) as f64 * 0.995).round() as usize];
+            }
+            for i in (0..self.position.len()).filter(|&i| self.kind[i] != 0) {
+                lo[k] = lo[k].min(self.position[i][k]);
+                hi[k] = hi[k].max(self.position[i][k]);
+            }
+            if !lo[k].is_finite() {
+                (lo[k], hi[k]) = (0.0, 1.0);
+            }
+        }
+        let pad = 2.0 * self.spacing;
+        ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad])
+    }
+}
+
+/// The union of boxes.
+pub fn union_bounds(
+    boxes: impl IntoIterator<Item = ([f64; 2], [f64; 2])>,
+) -> Option<([f64; 2], [f64; 2])> {
+    boxes.into_iter().reduce(|a, b| {
+        (
+            [a.0[0].min(b.0[0]), a.0[1].min(b.0[1])],
+            [a.1[0].max(b.1[0]), a.1[1].max(b.1[1])],
+        )
+    })
 }
 
 /// How to draw a snapshot.
@@ -180,7 +232,7 @@ pub struct RenderOptions {
     pub vectors: bool,
     /// Colour range (default: the frame's fluid range).
     pub range: Option<(f64, f64)>,
-    /// World bounds (lower-left, upper-right) in m (default: all particles, padded by l0).
+    /// World bounds (lower-left, upper-right) in m (default: [`Frame::bounds`]).
     pub bounds: Option<([f64; 2], [f64; 2])>,
     /// Speed drawn as the longest arrow (m/s) (default: the frame's largest fluid speed).
     pub vector_scale: Option<f64>,
@@ -247,18 +299,7 @@ impl Placement {
 
 /// The placement of a frame's world in an image of the options' width.
 pub fn placement(frame: &Frame, opts: &RenderOptions) -> Placement {
-    let (lo, hi) = opts.bounds.unwrap_or_else(|| {
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
-        for p in &frame.position {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let pad = frame.spacing;
-        ([lo[0] - pad, lo[1] - pad], [hi[0] + pad, hi[1] + pad])
-    });
+    let (lo, hi) = opts.bounds.unwrap_or_else(|| frame.bounds());
     let plot_w = (opts.width as i64 - 2 * MARGIN - BAR_AREA).max(50) as f64;
     Placement {
         scale: plot_w / (hi[0] - lo[0]).max(1e-12),
@@ -409,6 +450,7 @@ mod tests {
             pressure: vec![0.0, 100.0, 50.0, 0.0],
             density: vec![1000.0; 4],
             phase: vec![0.0; 4],
+            free_surface: vec![0.0; 4],
         }
     }
 
