@@ -4,6 +4,7 @@
 //! Reads `simulation` and `particles`; never changes a simulation.
 
 pub mod compare;
+pub mod exact;
 pub mod groups;
 pub mod metrics;
 pub mod summary;

@@ -57,6 +57,9 @@ pub struct Case {
     /// Optional comparison against reference data written by the run.
     #[serde(default)]
     pub validation: Option<ValidationSpec>,
+    /// Named constants for the expressions of initial fields (e.g. `omega = 1.0`).
+    #[serde(default)]
+    pub constants: std::collections::BTreeMap<String, f64>,
 }
 
 fn default_dimension() -> usize {
@@ -289,6 +292,17 @@ pub enum VelocitySpec {
         /// Velocity gradient rows (1/s).
         a: Vec<Vec<f64>>,
     },
+    /// Components as expressions in `x`, `y` (and `z`), `t = 0` and the case's constants
+    /// (m/s).
+    Expression {
+        /// x component (m/s).
+        u: String,
+        /// y component (m/s).
+        v: String,
+        /// z component (m/s), 3D only.
+        #[serde(default)]
+        w: Option<String>,
+    },
 }
 
 /// Initial pressure of a fluid region: a built-in analytic field.
@@ -312,6 +326,13 @@ pub enum PressureSpec {
         /// (set it to the surrounding fluid's for a group immersed in another phase).
         #[serde(default)]
         density: Option<f64>,
+    },
+    /// An expression in `x`, `y` (and `z`), `t = 0` and the case's constants (Pa). In a
+    /// projection method the initial pressure is the t = 0 record and the solver's first
+    /// guess, not a constraint: the first pressure solve replaces it.
+    Expression {
+        /// The pressure (Pa).
+        p: String,
     },
     /// Exact pressure of a rotating square patch (cases.md): `lap p = 2 rho omega^2`, 0 on edges.
     SquarePatch {
@@ -435,6 +456,37 @@ pub enum ValidationSpec {
         /// Window for the early acceleration, from rest (s).
         #[serde(default = "default_early_time")]
         early_time: f64,
+    },
+    /// A disc in solid rotation, an exact steady state under tension: pressure
+    /// `rho omega^2 (r^2 - R_s^2)/2` with `R_s = R - l0/2` (the surface particles' centres).
+    /// Checks the centre pressure (probe `probe`, mean from `from` s to the end) within 5 %,
+    /// the disc's radius at the end within one spacing, and particles with at most one
+    /// neighbour below 1 % at the end.
+    RotatingDisc {
+        /// Centre (m).
+        center: Vec<f64>,
+        /// Radius `R` (m).
+        radius: f64,
+        /// Angular velocity (rad/s).
+        omega: f64,
+        /// Probe at the centre.
+        probe: String,
+        /// Start of the averaging window (s), after the pressure has built up.
+        #[serde(default)]
+        from: f64,
+    },
+    /// An initially circular drop of radius `R` in the strain `u = A0 x`, `v = -A0 y` about its
+    /// centre (Monaghan 1994): it stays an ellipse whose semi-axes follow
+    /// `a' = A a`, `b = R^2 / a`, `A' = A^2 (b^2 - a^2)/(a^2 + b^2)`. Checks the semi-axes
+    /// (from the second moments of the particle positions) against that solution at every
+    /// output, largest relative error within 2 %.
+    EllipticDrop {
+        /// Centre (m).
+        center: Vec<f64>,
+        /// Initial radius `R` (m).
+        radius: f64,
+        /// Initial strain rate `A0` (1/s).
+        strain_rate: f64,
     },
 }
 

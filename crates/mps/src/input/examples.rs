@@ -33,6 +33,16 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/surfacing.toml"),
     ),
     (
+        "rotating_disc",
+        "Disc in solid rotation: exact steady state under tension (your own free-surface test)",
+        include_str!("../../cases/rotating_disc.toml"),
+    ),
+    (
+        "elliptic_drop",
+        "Elliptic drop (Monaghan 1994): a circle stretched into an ellipse, exact semi-axes",
+        include_str!("../../cases/elliptic_drop.toml"),
+    ),
+    (
         "bench_dam_break",
         "Benchmark: 1.0 x 0.6 m tank, l0 = 5 mm, fixed dt, 1000 steps, no output",
         include_str!("../../cases/bench_dam_break.toml"),

@@ -8,6 +8,7 @@
 pub mod analytic;
 pub mod case;
 pub mod examples;
+pub mod expression;
 pub mod overrides;
 pub mod scheme_spec;
 pub mod setup;

@@ -8,6 +8,7 @@
 
 use super::analytic::square_patch_pressure;
 use super::case::{Case, FluidSpec, PressureSpec, ShapeSpec, VelocitySpec};
+use super::expression::Expression;
 use super::shapes::{inside, shape_bounds, to_vec};
 use crate::error::CaseError;
 use crate::numerics::kernel::for_each_lattice_offset;
@@ -158,8 +159,17 @@ fn fluid_sites<const D: usize>(
     Ok(fluid)
 }
 
-/// Initial velocity (m/s) of region `f` at `x` (m).
-fn initial_velocity<const D: usize>(f: &FluidSpec, x: Vector<D>) -> Vector<D> {
+/// The value of an expression already checked by the case validation at `x` (m), `t = 0`.
+fn evaluate<const D: usize>(text: &str, case: &Case, x: Vector<D>) -> f64 {
+    let names = ["x", "y", "z"];
+    let vars: Vec<(&str, f64)> = (0..D).map(|k| (names[k], x[k])).collect();
+    Expression::parse(text, &["x", "y", "z", "t"], &case.constants)
+        .and_then(|e| e.eval(&vars))
+        .expect("checked by the case validation")
+}
+
+/// Initial velocity (m/s) of region `f` of `case` at `x` (m).
+fn initial_velocity<const D: usize>(f: &FluidSpec, case: &Case, x: Vector<D>) -> Vector<D> {
     match &f.velocity {
         None => Vector::zero(),
         Some(VelocitySpec::Uniform { value }) => to_vec(value),
@@ -180,11 +190,28 @@ fn initial_velocity<const D: usize>(f: &FluidSpec, x: Vector<D>) -> Vector<D> {
             }
             u
         }
+        Some(VelocitySpec::Expression { u, v, w }) => {
+            let mut out = Vector::zero();
+            for (k, e) in [Some(u), Some(v), w.as_ref()]
+                .into_iter()
+                .enumerate()
+                .take(D)
+            {
+                out[k] = e.map_or(0.0, |e| evaluate(e, case, x));
+            }
+            out
+        }
     }
 }
 
-/// Initial pressure (Pa) of region `f` of density `rho` (kg/m^3) at `x` (m).
-fn initial_pressure<const D: usize>(f: &FluidSpec, x: Vector<D>, rho: f64, g: f64) -> f64 {
+/// Initial pressure (Pa) of region `f` of `case`, density `rho` (kg/m^3), at `x` (m).
+fn initial_pressure<const D: usize>(
+    f: &FluidSpec,
+    case: &Case,
+    x: Vector<D>,
+    rho: f64,
+    g: f64,
+) -> f64 {
     match &f.pressure {
         None => 0.0,
         Some(PressureSpec::Uniform { value }) => *value,
@@ -203,6 +230,7 @@ fn initial_pressure<const D: usize>(f: &FluidSpec, x: Vector<D>, rho: f64, g: f6
             let yp = x[1] - (c[1] - side / 2.0);
             square_patch_pressure(xp, yp, *side, rho, *omega, 60)
         }
+        Some(PressureSpec::Expression { p }) => evaluate(p, case, x),
     }
 }
 
@@ -242,13 +270,13 @@ pub fn build_particles<const D: usize>(
         let x = site_position(s, l0);
         p.push(NewParticle {
             position: x,
-            velocity: initial_velocity(f, x),
+            velocity: initial_velocity(f, case, x),
             kind: Kind::Fluid,
             phase: ph as u16,
             density: rho,
         });
         let i = p.len() - 1;
-        p.pressure[i] = initial_pressure(f, x, rho, g);
+        p.pressure[i] = initial_pressure(f, case, x, rho, g);
         if let Some(name) = &f.group {
             p.group[i] = groups.iter().position(|n| n == name).expect("listed") as u16;
         }
@@ -330,6 +358,63 @@ mod tests {
                 assert!((p.position[w] - p.position[i]).norm() < 4.0 * 0.01 * 1.5);
             }
         }
+    }
+
+    /// Expressions equal to the built-in forms give the same fields to round-off.
+    #[test]
+    fn expressions_reproduce_the_built_in_fields() {
+        let with = |velocity: &str, pressure: &str| {
+            let extra = format!(
+                "[constants]\nomega = 1.5\n[[fluid]]\nphase = \"water\"\n\
+                 shape = {{ type = \"rectangle\", min = [0.0, 0.1], max = [0.2, 0.2] }}\n\
+                 velocity = {velocity}\npressure = {pressure}\n"
+            );
+            build_particles::<2>(&tank_case(&extra), "tank.toml").unwrap()
+        };
+        let built_in = with(
+            "{ type = \"rotation\", center = [0.1, 0.15], omega = 1.5 }",
+            "{ type = \"hydrostatic\", surface = 0.2 }",
+        );
+        let expr = with(
+            "{ type = \"expression\", u = \"-omega * (y - 0.15)\", v = \"omega * (x - 0.1)\" }",
+            "{ type = \"expression\", p = \"1000 * 9.81 * (0.2 - y)\" }",
+        );
+        assert_eq!(built_in.len(), expr.len());
+        let mut checked = 0;
+        for i in 0..built_in.len() {
+            if built_in.kind[i] != Kind::Fluid || built_in.position[i][1] < 0.1 {
+                continue;
+            }
+            let du = (built_in.velocity[i] - expr.velocity[i]).norm();
+            let dp = (built_in.pressure[i] - expr.pressure[i]).abs();
+            assert!(
+                du < 1e-14,
+                "velocity {:?} vs {:?}",
+                built_in.velocity[i],
+                expr.velocity[i]
+            );
+            assert!(
+                dp < 1e-9 * built_in.pressure[i].abs().max(1.0),
+                "pressure {dp}"
+            );
+            checked += 1;
+        }
+        assert_eq!(checked, 20 * 10);
+    }
+
+    #[test]
+    fn a_bad_expression_names_the_field_and_the_position() {
+        let extra = "[[fluid]]\nphase = \"water\"\n\
+                     shape = { type = \"rectangle\", min = [0.0, 0.1], max = [0.2, 0.2] }\n\
+                     pressure = { type = \"expression\", p = \"1000 * * y\" }\n";
+        let text = crate::input::case::tests::MINIMAL
+            .replace("max = [1.0, 1.0]", "max = [0.2, 0.3]")
+            .replace("max = [0.5, 0.5] }", "max = [0.2, 0.1] }")
+            + extra;
+        let e = Case::from_str_named(&text, "c.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "fluid.1.pressure.p");
+        assert!(e.message.contains("character 8"), "{e}");
+        assert!(!e.to_string().contains('\n'));
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! ranges. Every error names the file, the field and the value.
 
 use super::case::{Case, FluidSpec, PressureSpec, ShapeSpec, ValidationSpec, VelocitySpec};
+use super::expression::Expression;
 use super::shapes::shape_bounds;
 use crate::error::CaseError;
 
@@ -217,13 +218,36 @@ impl Case {
                     c.vector(&at("velocity.a"), row)?;
                 }
             }
+            Some(VelocitySpec::Expression { u, v, w }) => {
+                self.expression(c, &at("velocity.u"), u)?;
+                self.expression(c, &at("velocity.v"), v)?;
+                if let Some(w) = w {
+                    if c.d < 3 {
+                        return c.fail(&at("velocity.w"), w.clone(), "a 2D case has no z velocity");
+                    }
+                    self.expression(c, &at("velocity.w"), w)?;
+                }
+            }
             None => {}
         }
-        if let Some(PressureSpec::SquarePatch { center, side, .. }) = &f.pressure {
-            c.vector(&at("pressure.center"), center)?;
-            c.positive(&at("pressure.side"), *side)?;
+        match &f.pressure {
+            Some(PressureSpec::SquarePatch { center, side, .. }) => {
+                c.vector(&at("pressure.center"), center)?;
+                c.positive(&at("pressure.side"), *side)?;
+            }
+            Some(PressureSpec::Expression { p }) => self.expression(c, &at("pressure.p"), p)?,
+            _ => {}
         }
         Ok(())
+    }
+
+    /// An expression of an initial field: it parses and evaluates in `x`, `y`, `z`, `t` and
+    /// the case's constants.
+    fn expression(&self, c: &Checker, field: &str, text: &str) -> Result<(), CaseError> {
+        match Expression::parse(text, &["x", "y", "z", "t"], &self.constants) {
+            Ok(_) => Ok(()),
+            Err(e) => c.fail(field, format!("{text:?}"), &e.to_string()),
+        }
     }
 
     fn check_probes_and_breakdown(&self, c: &Checker) -> Result<(), CaseError> {

@@ -7,13 +7,17 @@ pub mod recorder;
 
 use crate::analysis::groups::{group_states, GroupState};
 use crate::analysis::metrics::Metrics;
-use crate::analysis::validation::{dam_break, early_acceleration, hydrostatic, ValidationResult};
+use crate::analysis::validation::{
+    dam_break, early_acceleration, elliptic_drop, hydrostatic, rotating_disc, DiscSpec,
+    ValidationResult,
+};
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
 use crate::input::case::ValidationSpec;
 use crate::io::series::Series;
 use crate::io::write_atomic;
 use crate::particles::Kind;
+use crate::particles::Vector;
 use crate::simulation::{Breakdown, Simulation, StepReport};
 use recorder::Recorder;
 use serde::Serialize;
@@ -256,6 +260,36 @@ fn validate<const D: usize>(
                 .collect();
             early_acceleration(&rec.group_series, *early_time, &densities, rho_w, g)
         }
+        Some(ValidationSpec::RotatingDisc {
+            center,
+            radius,
+            omega,
+            probe,
+            from,
+        }) => {
+            let k = case
+                .probes
+                .iter()
+                .position(|p| &p.name == probe)
+                .expect("validated");
+            let series: Vec<(f64, f64)> = rec.probe_series[k]
+                .iter()
+                .copied()
+                .filter(|s| s.0 >= *from)
+                .collect();
+            let disc = DiscSpec {
+                center: Vector::from_slice(center).expect("validated"),
+                radius: *radius,
+                omega: *omega,
+                rho: rho_w,
+            };
+            return Ok(rotating_disc(sim, &disc, &series));
+        }
+        Some(ValidationSpec::EllipticDrop {
+            radius,
+            strain_rate,
+            ..
+        }) => elliptic_drop(&rec.axes_series, *radius, *strain_rate),
         None => None,
     };
     Ok(result.into_iter().collect())

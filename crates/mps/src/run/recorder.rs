@@ -1,9 +1,11 @@
 //! The recorder: one writer per output file of a run, and the series kept in memory for the
 //! validations at the end.
 
+use crate::analysis::exact::semi_axes;
 use crate::analysis::groups::{group_states, pressure_noise};
 use crate::analysis::metrics::{front_position, Metrics};
 use crate::error::Result;
+use crate::input::case::ValidationSpec;
 use crate::io::checkpoint::write_checkpoint;
 use crate::io::series::{Cell, Series};
 use crate::io::vtu::{pvd_bytes, vtu_bytes};
@@ -53,6 +55,9 @@ pub struct Recorder<const D: usize> {
     pub group_names: Vec<String>,
     /// Per step: time and each group's centroid (x, y).
     pub group_series: Vec<(f64, Vec<(f64, f64)>)>,
+    /// Per output, for an elliptic-drop validation: time and the semi-axes (s, m, m).
+    pub axes_series: Vec<(f64, f64, f64)>,
+    axes_center: Option<Vector<D>>,
 }
 
 impl<const D: usize> Recorder<D> {
@@ -124,6 +129,11 @@ impl<const D: usize> Recorder<D> {
             front_wall,
             group_names,
             group_series: Vec::new(),
+            axes_series: Vec::new(),
+            axes_center: match &case.validation {
+                Some(ValidationSpec::EllipticDrop { center, .. }) => Vector::from_slice(center),
+                _ => None,
+            },
         })
     }
 
@@ -150,6 +160,10 @@ impl<const D: usize> Recorder<D> {
         self.outputs += 1;
         let m = Metrics::measure(sim);
         self.metrics.push(&m)?;
+        if let Some(c) = self.axes_center {
+            let (a, b) = semi_axes(&sim.particles, c);
+            self.axes_series.push((sim.time, a, b));
+        }
         if let Some(series) = &mut self.groups {
             let states = group_states(sim, self.group_names.len());
             let mut row = vec![Cell::Real(sim.time)];
