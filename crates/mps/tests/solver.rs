@@ -59,7 +59,7 @@ fn uniform_compression_gives_positive_pressure() {
         let sc = example("hydrostatic", &[("scheme.name", scheme)])
             .scheme("test")
             .unwrap();
-        let sys = assemble(&f, &k, &sc, Vector([0.0, 0.0]), dt);
+        let sys = assemble(&f, &vec![0.0; p.len()], &k, &sc, Vector([0.0, 0.0]), dt);
         let mut x = vec![0.0; sys.rhs.len()];
         pcg(&sys.matrix, &sys.rhs, &mut x, &Identity, 1e-10, 10000).unwrap();
         let inner: Vec<f64> = sys
@@ -97,7 +97,7 @@ fn ppe_matrix_is_symmetric_mid_run() {
         neighbors: &nl,
         ..s.view()
     };
-    let sys = assemble(&f, &k, &s.scheme, s.gravity, 1e-4);
+    let sys = assemble(&f, &p.pressure, &k, &s.scheme, s.gravity, 1e-4);
     let maxv = sys.matrix.val.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     assert!(sys.matrix.n() > 500);
     assert!(

@@ -24,7 +24,7 @@ fn ratio(pair: (f64, f64)) -> f64 {
 /// The comparison as a Markdown table: per scheme, breakdown time and reason (or none), time
 /// reached, kinetic energy and angular momentum at the end over their initial values, the
 /// closest pair over the run, the n/n0 spread and RMS speed at the end, and every probe at
-/// the start and at the end.
+/// the start and at the end with its step-to-step noise (RMS about its 1 ms average).
 pub fn markdown_table(runs: &[SchemeRun]) -> String {
     let probes: Vec<String> = runs
         .first()
@@ -38,14 +38,16 @@ pub fn markdown_table(runs: &[SchemeRun]) -> String {
         s.push_str(" group arrival (s) | stray at end |");
     }
     for p in &probes {
-        s.push_str(&format!(" {p} start (Pa) | {p} end (Pa) |"));
+        s.push_str(&format!(
+            " {p} start (Pa) | {p} end (Pa) | {p} noise (Pa) |"
+        ));
     }
     s.push_str("\n|---|---|---|---|---|---|---|---|---|");
     if has_groups {
         s.push_str("---|---|");
     }
     for _ in &probes {
-        s.push_str("---|---|");
+        s.push_str("---|---|---|");
     }
     s.push('\n');
     for r in runs {
@@ -83,7 +85,12 @@ pub fn markdown_table(runs: &[SchemeRun]) -> String {
             s.push_str(&format!(" {} | {stray} / {total} |", arrivals.join(", ")));
         }
         for p in &m.probes {
-            s.push_str(&format!(" {:.2} | {:.2} |", p.1, p.2));
+            let noise = m
+                .probe_noise
+                .iter()
+                .find(|n| n.0 == p.0)
+                .map_or(f64::NAN, |n| n.1);
+            s.push_str(&format!(" {:.2} | {:.2} | {noise:.1} |", p.1, p.2));
         }
         s.push('\n');
     }

@@ -7,6 +7,7 @@ pub mod compare;
 pub mod exact;
 pub mod groups;
 pub mod metrics;
+pub mod probes;
 pub mod summary;
 pub mod surface;
 pub mod validation;

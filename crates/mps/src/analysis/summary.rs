@@ -58,6 +58,10 @@ pub struct RunSummary {
     pub rms_speed_end: f64,
     /// Each probe's pressure at the start and at the end (Pa).
     pub probes: Vec<(String, f64, f64)>,
+    /// Each probe's step-to-step noise: RMS of the raw series minus its 1 ms moving average
+    /// (Pa).
+    #[serde(default)]
+    pub probe_noise: Vec<(String, f64)>,
     /// Fluid groups: arrival times, stray particles, final centroids.
     pub groups: Vec<GroupSummary>,
 }

@@ -89,6 +89,8 @@ pub struct SchemeSpec {
     pub wall_pressure: Option<WallPressure>,
     /// Artificial compressibility `kappa` (1/Pa, rho-scaled) on the PPE diagonal.
     pub compressibility: Option<f64>,
+    /// Sound speed (m/s) of a slight compressibility on the PPE (default: none).
+    pub sound_speed: Option<f64>,
     /// Collision model.
     #[serde(default)]
     pub collision: CollisionSpec,
@@ -281,6 +283,10 @@ impl SchemeSpec {
             kappa >= 0.0 && kappa.is_finite(),
             "[0, inf)",
         )?;
+        if let Some(c) = self.sound_speed {
+            let ok = c > 0.0 && c.is_finite();
+            s.sound_speed = Some(check(label, "sound_speed", c, ok, "(0, inf)")?);
+        }
         s.surface = self.surface(label)?;
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;

@@ -51,6 +51,7 @@ pub fn is_dirichlet<const D: usize>(i: usize, v: &View<D>, re_lap: f64) -> bool 
 /// What every row of the assembly reads.
 struct Rows<'a, const D: usize> {
     v: &'a View<'a, D>,
+    previous: &'a [f64],
     row_of: &'a [u32],
     k: &'a Kernels,
     s: &'a Scheme,
@@ -86,6 +87,13 @@ impl<const D: usize> Rows<'_, D> {
                 }
             }
         }
+        if let Some(c) = s.sound_speed {
+            // Slight compressibility: div u = -(1/(rho c^2)) Dp/Dt, i.e.
+            // (p - p^n) / (rho c^2 dt^2) on the row (docs/decisions.md, "Sound speed").
+            let beta = 1.0 / (rho_i * c * c * self.dt * self.dt);
+            diag += beta;
+            bi += beta * self.previous[i];
+        }
         if s.air_ghosts {
             // Missing neighbourhood = air at p = 0: sum_air c (p_i - 0).
             let deficit = (k.lap.n0 - n_lap).max(0.0);
@@ -97,9 +105,11 @@ impl<const D: usize> Rows<'_, D> {
     }
 }
 
-/// Assembles the PPE at the intermediate state (rows in parallel chunks, joined in order).
+/// Assembles the PPE at the intermediate state (rows in parallel chunks, joined in order);
+/// `previous` holds every particle's pressure of the last step (Pa).
 pub fn assemble<const D: usize>(
     v: &View<D>,
+    previous: &[f64],
     k: &Kernels,
     s: &Scheme,
     gravity: Vector<D>,
@@ -121,6 +131,7 @@ pub fn assemble<const D: usize>(
     let rows = particle_of.len();
     let ctx = Rows {
         v,
+        previous,
         row_of: &row_of,
         k,
         s,

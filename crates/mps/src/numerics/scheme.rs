@@ -34,8 +34,11 @@ pub struct Scheme {
     pub density_smoothing: bool,
     /// Wall and dummy pressure model.
     pub wall_pressure: WallPressure,
-    /// Artificial compressibility (1/Pa).
+    /// Artificial compressibility (1/Pa): a relaxation of the pressure toward zero.
     pub compressibility: f64,
+    /// Slight compressibility by a sound speed `c` (m/s): `(p - p^n)/(rho c^2 dt^2)` on the
+    /// PPE, a steady pressure unaffected; `None` for incompressible (the paper's presets).
+    pub sound_speed: Option<f64>,
     /// Collision model, if on.
     pub collision: Option<Collision>,
     /// Dynamic Stabilization, if on.
@@ -157,6 +160,7 @@ impl Preset {
             density_smoothing: false,
             wall_pressure: WallPressure::Extrapolated,
             compressibility: 0.0,
+            sound_speed: None,
             collision: self.collision.then_some(Collision {
                 alpha: defaults::COLLISION_ALPHA,
                 restitution: defaults::COLLISION_RESTITUTION,

@@ -7,6 +7,7 @@ pub mod recorder;
 
 use crate::analysis::groups::{group_states, GroupState};
 use crate::analysis::metrics::Metrics;
+use crate::analysis::probes::{noise, smooth, SMOOTHING_WINDOW};
 use crate::analysis::validation::{
     dam_break, early_acceleration, elliptic_drop, hydrostatic, rotating_disc, DiscSpec,
     ValidationResult,
@@ -203,10 +204,38 @@ pub fn run<const D: usize>(
     let m0 = Metrics::measure(sim);
     let groups0 = group_states(sim, rec.group_names.len());
     let totals = step_loop(sim, &mut rec, observer)?;
+    write_smoothed_probes(sim, &rec, out)?;
     let validation = validate(sim, &rec, out)?;
     let summary = summarise(sim, &rec, &totals, &m0, &groups0, validation);
     write_atomic(&out.join("summary.toml"), summary.to_toml().as_bytes())?;
     Ok(summary)
+}
+
+/// `probes_smoothed.csv`: every probe's 1 ms moving average (a gauge's reading).
+fn write_smoothed_probes<const D: usize>(
+    sim: &Simulation<D>,
+    rec: &Recorder<D>,
+    out: &Path,
+) -> Result<()> {
+    let Some(first) = rec.probe_series.first() else {
+        return Ok(());
+    };
+    let header: Vec<String> = std::iter::once("time".to_string())
+        .chain(sim.case.probes.iter().map(|p| p.name.clone()))
+        .collect();
+    let smoothed: Vec<Vec<(f64, f64)>> = rec
+        .probe_series
+        .iter()
+        .map(|s| smooth(s, SMOOTHING_WINDOW))
+        .collect();
+    let mut csv = Series::create(&out.join("probes_smoothed.csv"), Some(&header))?;
+    for (k, &(t, _)) in first.iter().enumerate() {
+        let row: Vec<f64> = std::iter::once(t)
+            .chain(smoothed.iter().map(|s| s[k].1))
+            .collect();
+        csv.push(&row)?;
+    }
+    csv.flush()
 }
 
 /// The case's validation against reference data (and the dam break's comparison file).
@@ -340,6 +369,12 @@ fn summarise<const D: usize>(
             .iter()
             .zip(&sim.case.probes)
             .map(|(s, p)| (p.name.clone(), s[0].1, s[s.len() - 1].1))
+            .collect(),
+        probe_noise: rec
+            .probe_series
+            .iter()
+            .zip(&sim.case.probes)
+            .map(|(s, p)| (p.name.clone(), noise(s, SMOOTHING_WINDOW)))
             .collect(),
         groups: group_summaries(sim, rec, groups0),
     }

@@ -184,7 +184,8 @@ impl<const D: usize> Simulation<D> {
         dt: f64,
     ) -> PressureSystem {
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
-        assemble(&v, &self.kernels, &self.scheme, self.gravity, dt)
+        let previous = &self.particles.pressure;
+        assemble(&v, previous, &self.kernels, &self.scheme, self.gravity, dt)
     }
 
     /// Stage 4b: solves the PPE (warm start from the last pressures) and returns every
