@@ -180,3 +180,64 @@ pub fn assemble<const D: usize>(
         particle_of,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linalg::{pcg, Jacobi};
+    use crate::numerics::scheme::Scheme;
+    use crate::particles::view::Cloud;
+
+    /// A block of 15 x 15 particles in uniform compression, its outer row Dirichlet.
+    fn block() -> (Cloud<2>, Kernels) {
+        let l0 = 0.01;
+        let (mut pos, mut vel) = (Vec::new(), Vec::new());
+        for a in 0..15 {
+            for b in 0..15 {
+                let x = Vector([a as f64 * l0, b as f64 * l0]);
+                pos.push(x);
+                vel.push((x - Vector([0.07, 0.07])) * -0.5);
+            }
+        }
+        let n = pos.len();
+        let k = Kernels::new::<2>(l0, 2.1, 3.1);
+        let mut cloud = Cloud::new(pos, vel, vec![1000.0; n], k.grad.n0, 3.4 * l0);
+        cloud.set_surface(|x| (0..2).any(|c| x[c] < 0.005 || x[c] > 0.135));
+        (cloud, k)
+    }
+
+    fn solve(sys: &PressureSystem) -> Vec<f64> {
+        let mut x = vec![0.0; sys.rhs.len()];
+        pcg(&sys.matrix, &sys.rhs, &mut x, &Jacobi::new(&sys.matrix), 1e-12, 10_000).unwrap();
+        let mut p = vec![0.0; sys.row_of.len()];
+        for (r, &i) in sys.particle_of.iter().enumerate() {
+            p[i as usize] = x[r];
+        }
+        p
+    }
+
+    /// With a sound speed, the pressure of the last step is a fixed point (a steady pressure
+    /// is unaffected), and from zero the pressure rises only part of the way (compressible
+    /// response), both against the incompressible solution.
+    #[test]
+    fn a_sound_speed_leaves_a_steady_pressure_unchanged() {
+        let (cloud, k) = block();
+        let v = cloud.view();
+        let dt = 1e-3;
+        let mut s = Scheme::preset("MPS-HS-GC").unwrap();
+        let zero = vec![0.0; v.pos.len()];
+        let g = Vector([0.0, 0.0]);
+        let incompressible = solve(&assemble(&v, &zero, &k, &s, g, dt));
+        let centre = 7 * 15 + 7;
+        assert!(incompressible[centre] > 0.0, "compression gives pressure");
+        s.sound_speed = Some(5.0);
+        let steady = solve(&assemble(&v, &incompressible, &k, &s, g, dt));
+        for i in 0..steady.len() {
+            let d = (steady[i] - incompressible[i]).abs();
+            assert!(d < 1e-6 * incompressible[centre], "particle {i}: {d}");
+        }
+        let from_rest = solve(&assemble(&v, &zero, &k, &s, g, dt));
+        let ratio = from_rest[centre] / incompressible[centre];
+        assert!(ratio > 0.0 && ratio < 0.99, "ratio {ratio}");
+    }
+}

@@ -59,6 +59,12 @@ impl<const D: usize> Cloud<D> {
             neighbors,
         }
     }
+    /// Flags the particles at positions where `surface` holds as free surface.
+    pub(crate) fn set_surface(&mut self, surface: impl Fn(&Vector<D>) -> bool) {
+        for (f, x) in self.free_surface.iter_mut().zip(&self.pos) {
+            *f = surface(x);
+        }
+    }
     /// The view the stages read.
     pub(crate) fn view(&self) -> View<'_, D> {
         View {
