@@ -3,7 +3,7 @@
 mod common;
 use common::{example, sim, tmp};
 use mps::linalg::{pcg, Ic0, Identity, Jacobi, Precondition};
-use mps::numerics::ppe::assemble;
+use mps::numerics::ppe::{assemble, PressureReference};
 use mps::numerics::Kernels;
 use mps::particles::neighbors::build_neighbor_list;
 use mps::particles::{Kind, Vector, View};
@@ -59,7 +59,19 @@ fn uniform_compression_gives_positive_pressure() {
         let sc = example("hydrostatic", &[("scheme.name", scheme)])
             .scheme("test")
             .unwrap();
-        let sys = assemble(&f, &vec![0.0; p.len()], &k, &sc, Vector([0.0, 0.0]), dt);
+        let reference = PressureReference {
+            position: None,
+            value: 0.0,
+        };
+        let sys = assemble(
+            &f,
+            &vec![0.0; p.len()],
+            &k,
+            &sc,
+            Vector([0.0, 0.0]),
+            dt,
+            &reference,
+        );
         let mut x = vec![0.0; sys.rhs.len()];
         pcg(&sys.matrix, &sys.rhs, &mut x, &Identity, 1e-10, 10000).unwrap();
         let inner: Vec<f64> = sys
@@ -97,7 +109,11 @@ fn ppe_matrix_is_symmetric_mid_run() {
         neighbors: &nl,
         ..s.view()
     };
-    let sys = assemble(&f, &p.pressure, &k, &s.scheme, s.gravity, 1e-4);
+    let reference = PressureReference {
+        position: None,
+        value: 0.0,
+    };
+    let sys = assemble(&f, &p.pressure, &k, &s.scheme, s.gravity, 1e-4, &reference);
     let maxv = sys.matrix.val.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     assert!(sys.matrix.n() > 500);
     assert!(

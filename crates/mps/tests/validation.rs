@@ -237,3 +237,55 @@ fn settling_and_surfacing_groups() {
         }
     }
 }
+
+/// A box closed on all sides, full of fluid at rest (two layers 2650 under 1000, and one
+/// fluid): 5 s with MPS-HS-GC-DS. No free surface, so the pressure level comes from the
+/// stated reference (0 Pa at the top of the water): the mid-depth probe within 1 % of the
+/// hydrostatic value from it, the RMS speed below 0.1 sqrt(g l0) throughout, and no
+/// particle more than two rows inside flagged free surface beyond a few momentary ones in
+/// the top corners (at most 0.2 % of the particles).
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn closed_boxes_stay_at_rest_with_a_pressure_level_from_the_reference() {
+    // (extra settings, exact pressure at the probe from the reference, Pa)
+    let cases: [(&[(&str, &str)], f64); 2] = [
+        (&[], 1000.0 * 9.81 * 0.1975 + 2650.0 * 9.81 * 0.05),
+        (
+            &[
+                ("fluid.0.phase", "water"),
+                ("fluid.0.pressure.offset", "0.0"),
+            ],
+            1000.0 * 9.81 * 0.2475,
+        ),
+    ];
+    for (k, (set, exact)) in cases.iter().enumerate() {
+        let mut set = set.to_vec();
+        set.push(("output.vtu", "false"));
+        let mut s = sim("closed_box", &set);
+        let fluid = s.particles.count(Kind::Fluid) as f64;
+        let dir = tmp(&format!("closed_box_{k}"));
+        let summary = run(&mut s, &dir, &mut Silent).unwrap();
+        assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
+        let mean = summary.validation[0].value;
+        let metrics = dir.join("metrics.csv");
+        let max_rms = column(&metrics, "rms_speed")
+            .into_iter()
+            .fold(0.0, f64::max);
+        let max_false = column(&metrics, "false_surface")
+            .into_iter()
+            .fold(0.0, f64::max);
+        eprintln!(
+            "closed box {k}: probe {mean:.1} Pa vs {exact:.1} ({:+.2} %), max RMS speed {max_rms:.4} m/s, most false surface flags {max_false}",
+            100.0 * (mean / exact - 1.0)
+        );
+        assert!((mean / exact - 1.0).abs() < 0.01, "probe {mean} vs {exact}");
+        assert!(
+            max_rms < 0.1 * (9.81f64 * 0.005).sqrt(),
+            "RMS speed {max_rms}"
+        );
+        assert!(
+            max_false <= 0.002 * fluid,
+            "{max_false} false surface flags"
+        );
+    }
+}

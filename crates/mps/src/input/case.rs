@@ -74,6 +74,22 @@ pub struct DomainSpec {
     pub min: Vec<f64>,
     /// Upper corner (m).
     pub max: Vec<f64>,
+    /// Pressure level of a closed domain (no free surface): the fluid particle nearest to
+    /// `position` takes `value`; default the highest fluid particle at 0 Pa.
+    #[serde(default)]
+    pub pressure_reference: Option<PressureReferenceSpec>,
+}
+
+/// Where a closed domain's pressure level is set.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PressureReferenceSpec {
+    /// Reference point (m); default the highest fluid particle.
+    #[serde(default)]
+    pub position: Option<Vec<f64>>,
+    /// Pressure there (Pa).
+    #[serde(default)]
+    pub value: f64,
 }
 
 /// Particle spacing and kernel radii.

@@ -33,6 +33,11 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/surfacing.toml"),
     ),
     (
+        "closed_box",
+        "Closed box with two fluids at rest: no free surface, pressure level from a reference",
+        include_str!("../../cases/closed_box.toml"),
+    ),
+    (
         "rotating_disc",
         "Disc in solid rotation: exact steady state under tension (your own free-surface test)",
         include_str!("../../cases/rotating_disc.toml"),

@@ -122,6 +122,18 @@ impl Case {
             let msg = "must exceed domain.min in every component";
             return c.fail("domain.max", format!("{:?}", self.domain.max), msg);
         }
+        if let Some(r) = &self.domain.pressure_reference {
+            if let Some(x) = &r.position {
+                c.vector("domain.pressure_reference.position", x)?;
+            }
+            let v = r.value;
+            c.require(
+                v.is_finite(),
+                "domain.pressure_reference.value",
+                v,
+                "must be finite",
+            )?;
+        }
         let l0 = self.particles.spacing;
         c.positive("particles.spacing", l0)?;
         for (f, v) in [

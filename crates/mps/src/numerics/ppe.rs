@@ -35,6 +35,35 @@ pub struct PressureSystem {
     pub row_of: Vec<u32>,
     /// Row -> particle index.
     pub particle_of: Vec<u32>,
+    /// In a closed domain (no Dirichlet row): the reference particle, held out of the
+    /// unknowns, and its pressure (Pa), which is added to every solved pressure.
+    pub level: Option<(u32, f64)>,
+}
+
+/// Where the pressure level of a closed domain is fixed: the fluid particle nearest to
+/// `position` (m) takes `value` (Pa); without a position, the highest fluid particle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PressureReference<const D: usize> {
+    /// Reference point (m), if given.
+    pub position: Option<Vector<D>>,
+    /// Pressure there (Pa).
+    pub value: f64,
+}
+
+impl<const D: usize> PressureReference<D> {
+    /// The reference particle of view `v`: the fluid particle nearest to the position, or
+    /// the highest one (largest last coordinate, lowest index on ties).
+    fn particle(&self, v: &View<D>) -> Option<usize> {
+        let fluid = (0..v.pos.len()).filter(|&i| v.kind[i] == Kind::Fluid);
+        match self.position {
+            Some(x) => {
+                fluid.min_by(|&a, &b| (v.pos[a] - x).norm2().total_cmp(&(v.pos[b] - x).norm2()))
+            }
+            None => {
+                fluid.max_by(|&a, &b| v.pos[a][D - 1].total_cmp(&v.pos[b][D - 1]).then(b.cmp(&a)))
+            }
+        }
+    }
 }
 
 /// True when particle `i` is a Dirichlet (`p = 0`) particle: free-surface fluid, a dummy, a
@@ -52,6 +81,8 @@ pub fn is_dirichlet<const D: usize>(i: usize, v: &View<D>, re_lap: f64) -> bool 
 struct Rows<'a, const D: usize> {
     v: &'a View<'a, D>,
     previous: &'a [f64],
+    /// Count the missing neighbourhood as air (the scheme's choice, off in a closed domain).
+    ghosts: bool,
     row_of: &'a [u32],
     k: &'a Kernels,
     s: &'a Scheme,
@@ -94,7 +125,7 @@ impl<const D: usize> Rows<'_, D> {
             diag += beta;
             bi += beta * self.previous[i];
         }
-        if s.air_ghosts {
+        if self.ghosts {
             // Missing neighbourhood = air at p = 0: sum_air c (p_i - 0).
             let deficit = (k.lap.n0 - n_lap).max(0.0);
             diag += coef * deficit / rho_i;
@@ -105,39 +136,10 @@ impl<const D: usize> Rows<'_, D> {
     }
 }
 
-/// Assembles the PPE at the intermediate state (rows in parallel chunks, joined in order);
-/// `previous` holds every particle's pressure of the last step (Pa).
-pub fn assemble<const D: usize>(
-    v: &View<D>,
-    previous: &[f64],
-    k: &Kernels,
-    s: &Scheme,
-    gravity: Vector<D>,
-    dt: f64,
-) -> PressureSystem {
-    let n = v.pos.len();
-    let dirichlet: Vec<bool> = (0..n)
-        .into_par_iter()
-        .map(|i| is_dirichlet(i, v, k.lap.re))
-        .collect();
-    let mut row_of = vec![NONE; n];
-    let mut particle_of = Vec::new();
-    for i in 0..n {
-        if !dirichlet[i] {
-            row_of[i] = particle_of.len() as u32;
-            particle_of.push(i as u32);
-        }
-    }
+/// The rows of `particle_of`, assembled in parallel chunks and joined in order: the matrix
+/// and the right-hand side.
+fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32]) -> (CsrMatrix, Vec<f64>) {
     let rows = particle_of.len();
-    let ctx = Rows {
-        v,
-        previous,
-        row_of: &row_of,
-        k,
-        s,
-        gravity,
-        dt,
-    };
     // Per chunk of rows: (row lengths, columns, values, right-hand sides).
     type Chunk = (Vec<u32>, Vec<u32>, Vec<f64>, Vec<f64>);
     let parts: Vec<Chunk> = (0..rows.div_ceil(CHUNK))
@@ -169,15 +171,72 @@ pub fn assemble<const D: usize>(
         vals.push(v);
         rhs.push(r);
     }
+    let matrix = CsrMatrix {
+        row_ptr: crate::parallel::offsets(&lens),
+        col: crate::parallel::concat(&cols),
+        val: crate::parallel::concat(&vals),
+    };
+    (matrix, crate::parallel::concat(&rhs))
+}
+
+/// Assembles the PPE at the intermediate state; `previous` holds every particle's pressure
+/// of the last step (Pa).
+///
+/// A closed domain (no fluid or wall particle is Dirichlet) has no pressure level: its
+/// matrix is singular up to a constant. Then there is no air (no ghosts), the right-hand side
+/// is made consistent (its mean removed), and the reference particle of `reference` is held
+/// at its value: a well-posed system whose solution is the consistent one, shifted.
+pub fn assemble<const D: usize>(
+    v: &View<D>,
+    previous: &[f64],
+    k: &Kernels,
+    s: &Scheme,
+    gravity: Vector<D>,
+    dt: f64,
+    reference: &PressureReference<D>,
+) -> PressureSystem {
+    let n = v.pos.len();
+    let mut dirichlet: Vec<bool> = (0..n)
+        .into_par_iter()
+        .map(|i| is_dirichlet(i, v, k.lap.re))
+        .collect();
+    let closed = !(0..n).any(|i| dirichlet[i] && v.kind[i] != Kind::Dummy);
+    let level_particle = if closed { reference.particle(v) } else { None };
+    if let Some(r) = level_particle {
+        dirichlet[r] = true;
+    }
+    let mut row_of = vec![NONE; n];
+    let mut particle_of = Vec::new();
+    for i in 0..n {
+        if !dirichlet[i] {
+            row_of[i] = particle_of.len() as u32;
+            particle_of.push(i as u32);
+        }
+    }
+    let ctx = Rows {
+        v,
+        previous,
+        ghosts: s.air_ghosts && !closed,
+        row_of: &row_of,
+        k,
+        s,
+        gravity,
+        dt,
+    };
+    let (matrix, mut rhs) = assemble_rows(&ctx, &particle_of);
+    if let Some(r) = level_particle {
+        // The singular system is solvable only if its sources sum to zero (the constant is
+        // its null vector): remove their mean, the reference particle's own row included.
+        let own = ctx.assemble(r, NONE, &mut Vec::new());
+        let mean = (rhs.iter().sum::<f64>() + own) / (rhs.len() + 1) as f64;
+        rhs.iter_mut().for_each(|b| *b -= mean);
+    }
     PressureSystem {
-        matrix: CsrMatrix {
-            row_ptr: crate::parallel::offsets(&lens),
-            col: crate::parallel::concat(&cols),
-            val: crate::parallel::concat(&vals),
-        },
-        rhs: crate::parallel::concat(&rhs),
+        matrix,
+        rhs,
         row_of,
         particle_of,
+        level: level_particle.map(|r| (r as u32, reference.value)),
     }
 }
 
@@ -208,12 +267,74 @@ mod tests {
 
     fn solve(sys: &PressureSystem) -> Vec<f64> {
         let mut x = vec![0.0; sys.rhs.len()];
-        pcg(&sys.matrix, &sys.rhs, &mut x, &Jacobi::new(&sys.matrix), 1e-12, 10_000).unwrap();
+        pcg(
+            &sys.matrix,
+            &sys.rhs,
+            &mut x,
+            &Jacobi::new(&sys.matrix),
+            1e-12,
+            10_000,
+        )
+        .unwrap();
+        let offset = sys.level.map_or(0.0, |l| l.1);
         let mut p = vec![0.0; sys.row_of.len()];
         for (r, &i) in sys.particle_of.iter().enumerate() {
-            p[i as usize] = x[r];
+            p[i as usize] = x[r] + offset;
+        }
+        if let Some((r, value)) = sys.level {
+            p[r as usize] = value;
         }
         p
+    }
+
+    /// A closed domain (no free surface, no Dirichlet row): the pressure level is fixed at the
+    /// reference particle, and the solution satisfies every row of the singular system with
+    /// its sources made consistent, the reference particle's row included.
+    #[test]
+    fn a_closed_domain_takes_its_level_from_the_reference() {
+        let (mut cloud, k) = block();
+        cloud.set_surface(|_| false);
+        let v = cloud.view();
+        let s = Scheme::preset("MPS-HS-GC").unwrap();
+        let reference = PressureReference {
+            position: Some(Vector([0.07, 0.14])),
+            value: 1234.0,
+        };
+        let zero = vec![0.0; v.pos.len()];
+        let g = Vector([0.0, 0.0]);
+        let sys = assemble(&v, &zero, &k, &s, g, 1e-3, &reference);
+        let (r, value) = sys.level.expect("no Dirichlet row: a closed domain");
+        assert_eq!(v.pos[r as usize], Vector([0.07, 0.14]));
+        assert_eq!(value, 1234.0);
+        let p = solve(&sys);
+        assert_eq!(p[r as usize], 1234.0);
+        // Every row, the reference's too, of the full singular system holds with the
+        // consistent sources (the rows' own, less their mean).
+        let n = v.pos.len();
+        let all: Vec<u32> = (0..n as u32).collect();
+        let ctx = Rows {
+            v: &v,
+            previous: &zero,
+            ghosts: false,
+            row_of: &all,
+            k: &k,
+            s: &s,
+            gravity: g,
+            dt: 1e-3,
+        };
+        let (a, b) = assemble_rows(&ctx, &all);
+        let mean = b.iter().sum::<f64>() / n as f64;
+        assert!(
+            mean.abs() > 1e-3,
+            "uniform compression: inconsistent sources to begin with"
+        );
+        let mut ap = vec![0.0; n];
+        a.spmv(&p, &mut ap);
+        let scale = b.iter().map(|x| x.abs()).fold(0.0, f64::max);
+        for i in 0..n {
+            let res = (ap[i] - (b[i] - mean)).abs();
+            assert!(res < 1e-8 * scale, "row {i}: residual {res} of {scale}");
+        }
     }
 
     /// With a sound speed, the pressure of the last step is a fixed point (a steady pressure
@@ -227,16 +348,20 @@ mod tests {
         let mut s = Scheme::preset("MPS-HS-GC").unwrap();
         let zero = vec![0.0; v.pos.len()];
         let g = Vector([0.0, 0.0]);
-        let incompressible = solve(&assemble(&v, &zero, &k, &s, g, dt));
+        let level = PressureReference {
+            position: None,
+            value: 0.0,
+        };
+        let incompressible = solve(&assemble(&v, &zero, &k, &s, g, dt, &level));
         let centre = 7 * 15 + 7;
         assert!(incompressible[centre] > 0.0, "compression gives pressure");
         s.sound_speed = Some(5.0);
-        let steady = solve(&assemble(&v, &incompressible, &k, &s, g, dt));
+        let steady = solve(&assemble(&v, &incompressible, &k, &s, g, dt, &level));
         for i in 0..steady.len() {
             let d = (steady[i] - incompressible[i]).abs();
             assert!(d < 1e-6 * incompressible[centre], "particle {i}: {d}");
         }
-        let from_rest = solve(&assemble(&v, &zero, &k, &s, g, dt));
+        let from_rest = solve(&assemble(&v, &zero, &k, &s, g, dt, &level));
         let ratio = from_rest[centre] / incompressible[centre];
         assert!(ratio > 0.0 && ratio < 0.99, "ratio {ratio}");
     }

@@ -7,7 +7,7 @@ use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::operators::{laplacian_vector, number_density};
-use crate::numerics::ppe::{assemble, PressureSystem};
+use crate::numerics::ppe::{assemble, PressureReference, PressureSystem};
 use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
@@ -185,7 +185,16 @@ impl<const D: usize> Simulation<D> {
     ) -> PressureSystem {
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
         let previous = &self.particles.pressure;
-        assemble(&v, previous, &self.kernels, &self.scheme, self.gravity, dt)
+        let reference = self.pressure_reference();
+        assemble(
+            &v,
+            previous,
+            &self.kernels,
+            &self.scheme,
+            self.gravity,
+            dt,
+            &reference,
+        )
     }
 
     /// Stage 4b: solves the PPE (warm start from the last pressures) and returns every
@@ -215,17 +224,45 @@ impl<const D: usize> Simulation<D> {
             .into());
         }
         let clamp = self.scheme.clamp_negative_pressure;
+        // A closed domain's level: every unknown offset by the reference value, which the
+        // reference particle takes.
+        let (reference, offset) = match sys.level {
+            Some((r, value)) => (r as usize, value),
+            None => (usize::MAX, 0.0),
+        };
         let pressure = (0..sys.row_of.len())
             .into_par_iter()
-            .map(|i| match sys.row_of[i] {
-                NONE => 0.0,
-                r if clamp => x[r as usize].max(0.0),
-                r => x[r as usize],
+            .map(|i| {
+                let p = match sys.row_of[i] {
+                    NONE if i == reference => offset,
+                    NONE => 0.0,
+                    r if sys.level.is_some() => x[r as usize] + offset,
+                    r => x[r as usize],
+                };
+                if clamp {
+                    p.max(0.0)
+                } else {
+                    p
+                }
             })
             .collect();
         // The PPE is done with: keep it when asked, free it otherwise (lower peak memory).
         self.last_system = self.keep_system.then_some(sys);
         Ok(pressure)
+    }
+
+    /// Where a closed domain's pressure level is set (the case's `domain.pressure_reference`).
+    fn pressure_reference(&self) -> PressureReference<D> {
+        match &self.case.domain.pressure_reference {
+            Some(r) => PressureReference {
+                position: r.position.as_deref().and_then(Vector::from_slice),
+                value: r.value,
+            },
+            None => PressureReference {
+                position: None,
+                value: 0.0,
+            },
+        }
     }
 
     /// Stage 5a: pressures of wall and dummy particles for the gradient, and which
