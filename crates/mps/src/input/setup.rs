@@ -25,19 +25,40 @@ fn site_position<const D: usize>(s: &Site<D>, l0: f64) -> Vector<D> {
     v
 }
 
-/// Lattice sites inside a shape.
-fn sites_of<const D: usize>(shape: &ShapeSpec, l0: f64, wall_depth: f64) -> Vec<Site<D>> {
+/// The lattice index range `[lo, hi]` (per axis) of the box `min..max` (m).
+fn site_range<const D: usize>(min: &[f64], max: &[f64], l0: f64) -> ([i64; D], [i64; D]) {
+    let mut lo = [0i64; D];
+    let mut hi = [0i64; D];
+    for k in 0..D {
+        // Saturating float-to-int casts keep far-away shapes finite; the clip does the rest.
+        lo[k] = (min[k] / l0 - 0.5).floor() as i64 - 1;
+        hi[k] = (max[k] / l0 - 0.5).ceil() as i64 + 1;
+    }
+    (lo, hi)
+}
+
+/// Lattice sites inside a shape, within the lattice box `clip` (only sites near the domain
+/// can become particles).
+fn sites_of<const D: usize>(
+    shape: &ShapeSpec,
+    l0: f64,
+    wall_depth: f64,
+    clip: &([i64; D], [i64; D]),
+) -> Vec<Site<D>> {
     let (lo, hi) = shape_bounds(shape);
     let pad = if matches!(shape, ShapeSpec::Tank { .. }) {
         wall_depth
     } else {
         0.0
     };
-    let mut klo = [0i64; D];
-    let mut khi = [0i64; D];
+    let padded = |v: &[f64], d: f64| v.iter().map(|x| x + d).collect::<Vec<f64>>();
+    let (mut klo, mut khi) = site_range::<D>(&padded(&lo, -pad), &padded(&hi, pad), l0);
     for k in 0..D {
-        klo[k] = ((lo[k] - pad) / l0 - 0.5).floor() as i64 - 1;
-        khi[k] = ((hi[k] + pad) / l0 - 0.5).ceil() as i64 + 1;
+        klo[k] = klo[k].max(clip.0[k]);
+        khi[k] = khi[k].min(clip.1[k]);
+        if klo[k] > khi[k] {
+            return Vec::new();
+        }
     }
     let mut out = Vec::new();
     let mut s = klo;
@@ -88,6 +109,15 @@ impl<const D: usize> Lattice<D> {
         }
     }
 
+    /// The lattice box a site must lie in to become a particle: the domain, padded by the
+    /// wall and dummy layers.
+    fn clip(&self) -> ([i64; D], [i64; D]) {
+        let pad = self.wall_depth + self.l0;
+        let lo: Vec<f64> = (0..D).map(|k| self.dmin[k] - pad).collect();
+        let hi: Vec<f64> = (0..D).map(|k| self.dmax[k] + pad).collect();
+        site_range::<D>(&lo, &hi, self.l0)
+    }
+
     fn in_domain(&self, s: &Site<D>) -> bool {
         let x = site_position(s, self.l0);
         (0..D).all(|k| x[k] > self.dmin[k] && x[k] < self.dmax[k])
@@ -131,7 +161,7 @@ fn fluid_sites<const D: usize>(
     let mut fluid: BTreeMap<Site<D>, usize> = BTreeMap::new();
     for (r, f) in case.fluid.iter().enumerate() {
         let field = format!("fluid.{r}.shape");
-        let sites = sites_of::<D>(&f.shape, l0, lat.wall_depth);
+        let sites = sites_of::<D>(&f.shape, l0, lat.wall_depth, &lat.clip());
         if sites.is_empty() {
             let msg = format!("region holds no particle at spacing {l0}");
             return Err(CaseError::new(label, field, "", msg));
@@ -241,10 +271,11 @@ pub fn build_particles<const D: usize>(
 ) -> Result<Particles<D>, CaseError> {
     let lat = Lattice::<D>::of(case);
     let l0 = lat.l0;
+    let clip = lat.clip();
     let solid: HashSet<Site<D>> = case
         .walls
         .iter()
-        .flat_map(|w| sites_of::<D>(&w.shape, l0, lat.wall_depth))
+        .flat_map(|w| sites_of::<D>(&w.shape, l0, lat.wall_depth, &clip))
         .collect();
     let fluid = fluid_sites(case, &lat, &solid, label)?;
 

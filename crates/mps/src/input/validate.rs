@@ -9,6 +9,21 @@ use crate::error::CaseError;
 /// Most lattice sites a domain may hold at its spacing (memory bound of the set-up).
 const MAX_LATTICE_SITES: f64 = 5e8;
 
+/// Most outputs a run may write (`time.end / output.interval`).
+const MAX_OUTPUTS: f64 = 1e7;
+
+/// Most dummy layers behind a wall (kernel radii reach at most 6 l0).
+const MAX_DUMMY_LAYERS: usize = 8;
+
+/// A number as a person writes it: plain in the usual range, with an exponent outside it.
+fn number(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
 /// The checks of one case file: its label (for errors) and dimension.
 struct Checker<'a> {
     label: &'a str,
@@ -26,7 +41,7 @@ impl Checker<'_> {
         if ok {
             Ok(())
         } else {
-            self.fail(field, value.to_string(), msg)
+            self.fail(field, number(value), msg)
         }
     }
 
@@ -136,6 +151,15 @@ impl Case {
         }
         let l0 = self.particles.spacing;
         c.positive("particles.spacing", l0)?;
+        if let Some(n) = self.particles.dummy_layers {
+            let msg = format!("at most {MAX_DUMMY_LAYERS} layers (kernel radii reach 6 l0)");
+            c.require(
+                n <= MAX_DUMMY_LAYERS,
+                "particles.dummy_layers",
+                n as f64,
+                &msg,
+            )?;
+        }
         for (f, v) in [
             ("particles.re_grad", self.particles.re_grad),
             ("particles.re_lap", self.particles.re_lap),
@@ -166,6 +190,14 @@ impl Case {
         }
         let i = self.output.interval;
         c.require(i >= 0.0, "output.interval", i, "must be zero or positive")?;
+        let outputs = t.end / i;
+        let msg = format!("gives {outputs:.1e} outputs up to time.end; at most 1e7");
+        c.require(
+            i == 0.0 || outputs <= MAX_OUTPUTS,
+            "output.interval",
+            i,
+            &msg,
+        )?;
         let tol = self.solver.tolerance;
         c.require(
             tol > 0.0 && tol < 1.0,

@@ -42,18 +42,34 @@ pub struct CellGrid<const D: usize> {
     sorted: Vec<u32>,
 }
 
+/// Most cells a grid may have; a larger extent (a runaway particle) coarsens the cells.
+const MAX_CELLS: f64 = 5e7;
+
 impl<const D: usize> CellGrid<D> {
-    /// Bins the points into cells of side `cell` (m).
-    pub fn build(points: &[Vector<D>], cell: f64) -> Self {
+    /// Bins the points into cells of side `cell` (m). The grid covers the points' extent
+    /// within `bounds` (m), when given: points beyond it (particles that left the domain) go
+    /// to the border cells, so a runaway particle cannot size the grid.
+    pub fn build(points: &[Vector<D>], cell: f64, bounds: Option<(Vector<D>, Vector<D>)>) -> Self {
         let (mut lo, mut hi) = (Vector([f64::MAX; D]), Vector([f64::MIN; D]));
-        for p in points {
+        for p in points.iter().filter(|p| p.is_finite()) {
             lo = lo.min(p);
             hi = hi.max(p);
         }
-        if points.is_empty() {
-            lo = Vector::zero();
-            hi = Vector::zero();
+        if let Some((blo, bhi)) = bounds {
+            lo = lo.max(&blo);
+            hi = hi.min(&bhi);
         }
+        for k in 0..D {
+            if !(lo[k] <= hi[k]) {
+                (lo[k], hi[k]) = (0.0, 0.0);
+            }
+        }
+        let span: f64 = (0..D).map(|k| (hi[k] - lo[k]) / cell + 1.0).product();
+        let cell = if span > MAX_CELLS {
+            cell * (span / MAX_CELLS).powf(1.0 / D as f64)
+        } else {
+            cell
+        };
         let mut dims = [1usize; D];
         for k in 0..D {
             dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize + 1).max(1);
@@ -129,7 +145,7 @@ impl<const D: usize> CellGrid<D> {
             let mut rem = n;
             let mut cc = c;
             for item in cc.iter_mut() {
-                *item += (rem % 3) as i64 - 1;
+                *item = item.saturating_add((rem % 3) as i64 - 1);
                 rem /= 3;
             }
             if let Some(l) = self.linear(&cc) {
@@ -144,7 +160,17 @@ impl<const D: usize> CellGrid<D> {
 /// Builds the neighbour lists of all points within `cutoff` (m), excluding the point itself.
 /// The result is independent of the number of threads.
 pub fn build_neighbor_list<const D: usize>(points: &[Vector<D>], cutoff: f64) -> NeighborList {
-    let grid = CellGrid::build(points, cutoff);
+    build_neighbor_list_within(points, cutoff, None)
+}
+
+/// [`build_neighbor_list`] on a grid limited to `bounds` (m): points beyond it find only the
+/// neighbours in the border cells.
+pub fn build_neighbor_list_within<const D: usize>(
+    points: &[Vector<D>],
+    cutoff: f64,
+    bounds: Option<(Vector<D>, Vector<D>)>,
+) -> NeighborList {
+    let grid = CellGrid::build(points, cutoff, bounds);
     let n = points.len();
     let c2 = cutoff * cutoff;
     // Particles per parallel work unit (docs/decisions.md, "Parallel chunk sizes").
@@ -178,14 +204,37 @@ pub fn build_neighbor_list<const D: usize>(points: &[Vector<D>], cutoff: f64) ->
     }
 }
 
-/// The order (new index -> old index) that sorts points along the cells of side `cell` (m).
-pub fn locality_order<const D: usize>(points: &[Vector<D>], cell: f64) -> Vec<u32> {
-    CellGrid::build(points, cell).cell_order().to_vec()
+/// The order (new index -> old index) that sorts points along the cells of side `cell` (m),
+/// the grid limited to `bounds` (m) when given.
+pub fn locality_order<const D: usize>(
+    points: &[Vector<D>],
+    cell: f64,
+    bounds: Option<(Vector<D>, Vector<D>)>,
+) -> Vec<u32> {
+    CellGrid::build(points, cell, bounds).cell_order().to_vec()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A runaway particle far outside the bounds (or not finite) neither sizes the grid nor
+    /// breaks the search; the others still find each other.
+    #[test]
+    fn a_runaway_particle_does_not_size_the_grid() {
+        let pts = vec![
+            Vector([0.0, 0.0]),
+            Vector([0.05, 0.0]),
+            Vector([1e300, -1e300]),
+            Vector([f64::NAN, 0.0]),
+        ];
+        let bounds = Some((Vector([-1.0, -1.0]), Vector([1.0, 1.0])));
+        let nl = build_neighbor_list_within(&pts, 0.07, bounds);
+        assert_eq!(nl.of(0), &[1]);
+        assert_eq!(nl.of(1), &[0]);
+        let unbounded = build_neighbor_list(&pts, 0.07);
+        assert_eq!(unbounded.of(0), &[1]);
+    }
 
     #[test]
     fn cell_list_finds_the_same_pairs_as_brute_force() {
@@ -203,6 +252,10 @@ mod tests {
             pts.push(Vector([x, y * 0.5]));
         }
         let nl = build_neighbor_list(&pts, 0.07);
+        // A grid limited to a box holding every point finds the same pairs.
+        let within =
+            build_neighbor_list_within(&pts, 0.07, Some((Vector([0.0, 0.0]), Vector([1.0, 0.5]))));
+        assert_eq!(within.indices.len(), nl.indices.len());
         for i in 0..pts.len() {
             let mut got: Vec<u32> = nl.of(i).to_vec();
             got.sort();

@@ -94,6 +94,13 @@ fn step_loop<const D: usize>(
     };
     let max_steps = sim.case.time.max_steps.unwrap_or(u64::MAX);
     let eps = 1e-9 * end;
+    // The output tolerance never exceeds a millionth of the interval (a huge end time must
+    // not make every step an output).
+    let eps_out = if interval > 0.0 {
+        eps.min(1e-6 * interval)
+    } else {
+        eps
+    };
     let mut t = Totals {
         iterations: 0,
         min_pair_l0: f64::INFINITY,
@@ -114,15 +121,13 @@ fn step_loop<const D: usize>(
         t.min_pair_l0 = t.min_pair_l0.min(r.min_pair_distance / sim.l0());
         rec.step(sim, &r)?;
         rec.sample(sim)?;
-        if sim.time >= next_out - eps && sim.time < end - eps {
+        if sim.time >= next_out - eps_out && sim.time < end - eps {
             output(rec, sim, observer)?;
             // The checkpoint holds no solver set-up: drop it here too, so a run restarted
             // from this checkpoint continues bit-identically.
             sim.reset_solver_cache();
             last_output_step = sim.step_count;
-            while next_out <= sim.time + eps {
-                next_out += interval;
-            }
+            next_out = following_output(next_out, sim.time + eps_out, interval);
         }
         observer.on_step(&Progress {
             time: sim.time,
@@ -157,6 +162,19 @@ struct BreakdownRecord {
     message: String,
     /// Ids of the particles involved.
     particles: Vec<u32>,
+}
+
+/// The first output time after `now` (s) on the grid of `interval` (s) from `next` (s): one
+/// addition in the usual case, a multiple when steps are longer than the interval.
+fn following_output(next: f64, now: f64, interval: f64) -> f64 {
+    if next > now || !(interval > 0.0) {
+        return next;
+    }
+    let next = next + interval;
+    if next > now {
+        return next;
+    }
+    next + ((now - next) / interval).floor().max(0.0) * interval + interval
 }
 
 /// `breakdown.toml`: time, step, reason and the particles involved.
@@ -250,7 +268,8 @@ fn validate<const D: usize>(
     let result = match &case.validation {
         Some(ValidationSpec::DamBreak { column_width, .. }) => {
             let (result, rows) = dam_break(&rec.front_series, *column_width, g, sim.l0());
-            let mut csv = Series::create(&out.join("dam_break_front.csv"), None)?;
+            let header = ["T", "Z_experiment", "Z_simulation", "difference"].map(String::from);
+            let mut csv = Series::create(&out.join("dam_break_front.csv"), Some(&header))?;
             for &(t, experiment, simulation) in &rows {
                 let difference = simulation - experiment;
                 csv.push(&FrontRow {

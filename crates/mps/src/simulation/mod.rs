@@ -216,6 +216,15 @@ impl<const D: usize> Simulation<D> {
         r
     }
 
+    /// The box (m) the neighbour grid may cover: the domain padded by every wall and dummy
+    /// layer (at most 9 l0) and a margin; a particle beyond it has left the domain.
+    fn grid_bounds(&self) -> Option<(Vector<D>, Vector<D>)> {
+        let pad = Vector([12.0 * self.l0() + self.cutoff(); D]);
+        let lo = Vector::<D>::from_slice(&self.case.domain.min)?;
+        let hi = Vector::<D>::from_slice(&self.case.domain.max)?;
+        Some((lo - pad, hi + pad))
+    }
+
     fn cutoff(&self) -> f64 {
         self.kernels.grad.re.max(self.kernels.lap.re) + self.skin
     }
@@ -228,9 +237,10 @@ impl<const D: usize> Simulation<D> {
 
     /// Rebuilds the neighbour lists at the current positions (after a restore).
     pub fn rebuild_neighbors(&mut self) {
-        self.neighbors = crate::particles::neighbors::build_neighbor_list(
+        self.neighbors = crate::particles::neighbors::build_neighbor_list_within(
             &self.particles.position,
             self.cutoff(),
+            self.grid_bounds(),
         );
     }
 

@@ -11,7 +11,7 @@ use crate::numerics::ppe::{assemble, PressureReference, PressureSystem};
 use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
-use crate::particles::neighbors::{build_neighbor_list, locality_order};
+use crate::particles::neighbors::{build_neighbor_list_within, locality_order};
 use crate::particles::{Kind, NeighborList, Vector, View, NONE};
 use rayon::prelude::*;
 
@@ -61,7 +61,7 @@ impl<const D: usize> Simulation<D> {
 
     /// Sorts the particles along the cells of the neighbour grid.
     pub(super) fn reorder(&mut self) {
-        let order = locality_order(&self.particles.position, self.cutoff());
+        let order = locality_order(&self.particles.position, self.cutoff(), self.grid_bounds());
         self.particles.permute(&order);
     }
 
@@ -72,7 +72,8 @@ impl<const D: usize> Simulation<D> {
         }
         // The old list goes first, so the two never coexist (peak memory).
         self.neighbors = NeighborList::default();
-        self.neighbors = build_neighbor_list(&self.particles.position, self.cutoff());
+        self.neighbors =
+            build_neighbor_list_within(&self.particles.position, self.cutoff(), self.grid_bounds());
     }
 
     /// Stage 2: `u* = u + dt (nu lap u + g)`, `r* = r + dt u*` for fluid particles.
@@ -111,7 +112,7 @@ impl<const D: usize> Simulation<D> {
         if 2.0 * max_move > self.skin {
             self.timed(Stage::Neighbors, |s| {
                 s.neighbors = NeighborList::default();
-                s.neighbors = build_neighbor_list(&pred.pos, s.cutoff());
+                s.neighbors = build_neighbor_list_within(&pred.pos, s.cutoff(), s.grid_bounds());
             });
         }
         Ok(())
