@@ -219,11 +219,11 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
     for &t in &a.threads {
         rows.push(measure(&case, &label, t, steps, 0)?);
     }
-    println!(
+    say!(
         "case {label}: {} particles, {steps} steps",
         rows[0].particles
     );
-    println!(
+    say!(
         "{:>7} {:>10} {:>12} {:>9} {:>11} {:>11} {:>11} {:>11} {:>11} {:>9} {:>12}",
         "threads",
         "ms/step",
@@ -255,7 +255,7 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
         } = r.split();
         let speedup = base.seconds / r.seconds;
         let nb_speedup = explicit(base) / explicit(r);
-        println!(
+        say!(
             "{:>7} {:>10.3} {:>12.3} {:>9.1} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>9.2} {:>12.2}",
             r.threads, total, pss / 1e6, r.mean_iterations, nb, asm, setup, sol, rest, speedup, nb_speedup
         );
@@ -294,11 +294,11 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str) -> CmdResult {
     let max_threads = a.threads.iter().copied().max().unwrap_or(1);
     let triad = triad_bandwidth(max_threads)?;
     let triad1 = triad_bandwidth(1)?;
-    println!(
+    say!(
         "case {label}, solver {:?}; triad bandwidth {triad:.2} GB/s on {max_threads} threads, {triad1:.2} GB/s on 1",
         case.solver.kind
     );
-    println!(
+    say!(
         "{:>9} {:>3} {:>6} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>8}",
         "particles", "thr", "steps", "ms/step", "Mp-st/s", "PPE it", "neighb", "assemb", "setup",
         "solve", "rest", "ns/p/core", "B/part", "SpMV/bw", "PPE/SpMV", "Mp-s/s/c"
@@ -335,7 +335,7 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str) -> CmdResult {
                 }
                 None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
             };
-            println!(
+            say!(
                 "{:>9} {:>3} {:>6} {:>9.2} {:>8.3} {:>7.1} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>8.0} {:>7.0} {:>7.2} {:>8.1} {:>8.3}",
                 r.particles, t, r.steps, total, pss / 1e6, r.mean_iterations, nb, asm, setup, sol,
                 rest, non_ppe_ns, bytes, ratio, equiv, pss / 1e6 / t as f64
@@ -349,7 +349,7 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str) -> CmdResult {
     }
     if let Some(p) = &a.csv {
         mps::io::write_atomic(p, csv.as_bytes())?;
-        println!("wrote {}", p.display());
+        say!("wrote {}", p.display());
     }
     if let Some(dir) = &a.plot {
         ladder_charts(a, &rows, dir)?;
@@ -420,7 +420,7 @@ fn ladder_charts(a: &BenchArgs, rows: &[Row], dir: &std::path::Path) -> Result<(
         let p = dir.join(format!("{name}.svg"));
         let svg = line_chart_svg(&c).map_err(|e| io_error(&p, e))?;
         mps::io::write_atomic(&p, svg.as_bytes())?;
-        println!("wrote {}", p.display());
+        say!("wrote {}", p.display());
     }
     Ok(())
 }

@@ -64,7 +64,7 @@ pub fn cmd_compare(a: CompareArgs) -> CmdResult {
     // Every run gets a full-size pool: when some schemes break down early the others keep
     // all cores (results do not depend on the thread count).
     let per_run = cores;
-    eprintln!(
+    say_err!(
         "comparing {} on {} ({} thread(s) per run) -> {}",
         a.schemes.join(", "),
         name,
@@ -84,7 +84,7 @@ pub fn cmd_compare(a: CompareArgs) -> CmdResult {
                     pool.install(|| {
                         let mut sim = Simulation::<2>::new(case.clone(), label)?;
                         let summary = run(&mut sim, &dir, &mut Silent)?;
-                        eprintln!(
+                        say_err!(
                             "  {scheme}: {}",
                             summary.breakdown.clone().unwrap_or_else(|| format!(
                                 "reached t = {:.3} s without breakdown",
@@ -125,10 +125,10 @@ pub fn cmd_compare(a: CompareArgs) -> CmdResult {
         join_metrics(&parts).as_bytes(),
     )?;
     if let Some(f) = comparison_figure(&a, &out, &runs, cases[0].1 .0.time.end)? {
-        eprintln!("figure: {}", f.display());
+        say_err!("figure: {}", f.display());
     }
-    println!("{md}");
-    eprintln!(
+    say!("{md}");
+    say_err!(
         "written: {0}/compare.md, compare.csv, compare_metrics.csv, one folder per scheme",
         out.display()
     );

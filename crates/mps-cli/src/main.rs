@@ -1,5 +1,21 @@
 //! `mps`: command-line program over the MPS solver library.
 
+/// Prints a line to standard output; a closed pipe (`mps ... | head -1`) is not an error.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// Prints a line to standard error; a closed pipe is not an error.
+macro_rules! say_err {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 use clap::{Args, Parser, Subcommand};
 use failure::{bad, io_error, CmdResult, Failure};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -168,9 +184,15 @@ impl Observer for Reporter {
         } else if !self.quiet && self.last_log.elapsed().as_secs_f64() > 5.0 {
             self.last_log = Instant::now();
             let eta = (p.end - p.time) / (p.time / p.elapsed.max(1e-9)).max(1e-12);
-            eprintln!(
+            say_err!(
                 "t = {:.4} / {} s  step {}  {:.0} steps/s  dt {:.2e} s  PPE {} it  ETA {:.0} s",
-                p.time, p.end, p.step, rate, p.report.dt, p.report.solve.iterations, eta
+                p.time,
+                p.end,
+                p.step,
+                rate,
+                p.report.dt,
+                p.report.solve.iterations,
+                eta
             );
         }
     }
@@ -202,7 +224,7 @@ impl Observer for Reporter {
         if let Some(b) = &self.bar {
             b.println(m);
         } else if !self.quiet {
-            eprintln!("{m}");
+            say_err!("{m}");
         }
     }
 }
@@ -210,7 +232,7 @@ impl Observer for Reporter {
 fn print_timing(s: &RunSummary) {
     let total: f64 = s.stages.iter().map(|x| x.1).sum();
     let particles = s.fluid_particles + s.wall_particles + s.dummy_particles;
-    eprintln!(
+    say_err!(
         "timing: {:.2} s wall, {} particles, {} steps, {:.3} M particle-steps/s, {:.2} ms/step, {} threads",
         s.wall_seconds,
         particles,
@@ -219,11 +241,11 @@ fn print_timing(s: &RunSummary) {
         1e3 * s.wall_seconds / s.steps.max(1) as f64,
         s.threads
     );
-    eprintln!("  step loop {total:>9.3} s");
+    say_err!("  step loop {total:>9.3} s");
     let n = s.stages.len();
     for (k, (name, t)) in s.stages.iter().enumerate() {
         let branch = if k + 1 == n { "└─" } else { "├─" };
-        eprintln!(
+        say_err!(
             "  {branch} {name:<26} {t:>8.3} s {:>5.1} %",
             100.0 * t / total.max(1e-12)
         );
@@ -248,7 +270,7 @@ fn restart(sim: &mut Simulation<2>, ck: &Path, quiet: bool) -> Result<PathBuf, F
         .map_err(|e| bad(format!("{}: cannot read checkpoint: {e}", ck.display())))?;
     mps::io::checkpoint::restore(sim, &bytes, ck)?;
     if !quiet {
-        eprintln!(
+        say_err!(
             "restarting from {} at t = {:.6} s (step {})",
             ck.display(),
             sim.time,
@@ -275,16 +297,16 @@ fn save_case(a: &CaseArgs, out: &Path) -> Result<(), Failure> {
 fn print_results(s: &RunSummary, out: &Path) {
     print_timing(s);
     for v in &s.validation {
-        eprintln!("validation: {} = {:.4} ({})", v.name, v.value, v.note);
+        say_err!("validation: {} = {:.4} ({})", v.name, v.value, v.note);
         if v.reference != 0.0 {
-            eprintln!(
+            say_err!(
                 "            reference {:.4}, relative error {:+.2} %",
                 v.reference,
                 100.0 * v.error
             );
         }
     }
-    eprintln!(
+    say_err!(
         "output: {} (open particles.pvd in ParaView; metrics.csv, steps.csv, summary.toml)",
         out.display()
     );
@@ -298,6 +320,7 @@ fn cmd_run(a: RunArgs) -> CmdResult {
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&case.name));
     let end = case.time.end;
+    let vtu = case.output.vtu;
     let mut sim = Simulation::<2>::new(case, &label)?;
     if let Some(ck) = &a.restart {
         let dir = restart(&mut sim, ck, a.quiet)?;
@@ -307,7 +330,7 @@ fn cmd_run(a: RunArgs) -> CmdResult {
     }
     if !a.quiet {
         let p = &sim.particles;
-        eprintln!(
+        say_err!(
             "{}: {} fluid, {} wall, {} dummy particles, l0 = {} m, scheme {}, to t = {} s -> {}",
             label,
             p.count(mps::particles::Kind::Fluid),
@@ -330,10 +353,12 @@ fn cmd_run(a: RunArgs) -> CmdResult {
         print_results(&summary, &out);
     }
     if let Some(b) = &summary.breakdown {
-        eprintln!(
-            "error: {b}; last good state and breakdown.toml in {}",
-            out.display()
-        );
+        let files = if vtu {
+            "last good state and breakdown.toml"
+        } else {
+            "breakdown.toml (no last good state: output.vtu = false)"
+        };
+        say_err!("error: {b}; {files} in {}", out.display());
         return Ok(ExitCode::from(2));
     }
     Ok(ExitCode::SUCCESS)
@@ -353,7 +378,7 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd_run(a),
         Command::List => {
             for (name, desc, _) in EXAMPLES {
-                println!("{name:<20} {desc}");
+                say!("{name:<20} {desc}");
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -366,7 +391,7 @@ fn main() -> ExitCode {
     match r {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e}");
+            say_err!("error: {e}");
             e.exit_code()
         }
     }

@@ -153,7 +153,7 @@ pub fn cmd_plot(a: PlotArgs) -> CmdResult {
         )));
     }
     for p in plot_run(&a.run_dir)? {
-        println!("{}", p.display());
+        say!("{}", p.display());
     }
     Ok(ExitCode::SUCCESS)
 }

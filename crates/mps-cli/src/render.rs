@@ -153,10 +153,10 @@ pub fn cmd_render(a: RenderArgs) -> CmdResult {
         })
         .collect();
     for w in written {
-        println!("{}", w?.display());
+        say!("{}", w?.display());
     }
     if a.movie {
-        println!("{}", movie(&a, &chosen, &out)?.display());
+        say!("{}", movie(&a, &chosen, &out)?.display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -308,6 +308,6 @@ pub fn cmd_report(a: ReportArgs) -> CmdResult {
             a.dir.display()
         )));
     }
-    println!("{}", write_report(&a.dir)?.display());
+    say!("{}", write_report(&a.dir)?.display());
     Ok(ExitCode::SUCCESS)
 }

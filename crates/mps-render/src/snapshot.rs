@@ -263,6 +263,15 @@ const TITLE: i64 = 34;
 const BAR_AREA: i64 = 130;
 const BAR_WIDTH: i64 = 18;
 
+/// A time for a title: four significant digits (0.0076 stays 0.0076, 3.0 reads 3.000).
+pub fn time_label(t: f64) -> String {
+    if t == 0.0 || !t.is_finite() {
+        return format!("{t:.3}");
+    }
+    let decimals = (3 - t.abs().log10().floor() as i64).clamp(0, 12) as usize;
+    format!("{t:.decimals$}")
+}
+
 /// Compact number for labels.
 pub fn fmt_value(v: f64) -> String {
     if v != 0.0 && (v.abs() >= 1e4 || v.abs() < 1e-2) {
@@ -335,7 +344,7 @@ pub fn render_frame(frame: &Frame, opts: &RenderOptions) -> Canvas {
         }
     }
     let (name, unit) = opts.field.label();
-    let mut title = format!("{name} ({unit})   t = {:.3} s", frame.time);
+    let mut title = format!("{name} ({unit})   t = {} s", time_label(frame.time));
     if !opts.label.is_empty() {
         title = format!("{}   {title}", opts.label);
     }
@@ -452,6 +461,14 @@ mod tests {
             phase: vec![0.0; 4],
             free_surface: vec![0.0; 4],
         }
+    }
+
+    #[test]
+    fn titles_keep_four_significant_digits_of_time() {
+        assert_eq!(time_label(0.0076), "0.007600");
+        assert_eq!(time_label(3.0), "3.000");
+        assert_eq!(time_label(12.5), "12.50");
+        assert_eq!(time_label(0.0), "0.000");
     }
 
     #[test]

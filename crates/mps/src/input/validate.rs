@@ -114,6 +114,13 @@ impl Case {
             let msg = "only 2D is supported in this version (3D is planned)";
             return c.fail("dimension", c.d.to_string(), msg);
         }
+        // The name is the default output folder `runs/<name>`: a plain name, no path.
+        let plain = |ch: char| ch.is_ascii_alphanumeric() || "_-.".contains(ch);
+        if self.name.is_empty() || self.name.starts_with('.') || !self.name.chars().all(plain) {
+            let msg =
+                "a plain name of letters, digits, `_`, `-` and `.` (it names the output folder)";
+            return c.fail("name", format!("{:?}", self.name), msg);
+        }
         self.check_domain_and_particles(&c)?;
         self.check_time_and_output(&c)?;
         self.scheme(label)?;
@@ -307,8 +314,23 @@ impl Case {
                 );
             }
         }
-        let m = self.breakdown.min_pair_distance;
-        let field = "breakdown.min_pair_distance";
-        c.require((0.0..1.0).contains(&m), field, m, "must lie in [0, 1)")
+        let b = &self.breakdown;
+        let m = b.min_pair_distance;
+        c.require(
+            (0.0..1.0).contains(&m),
+            "breakdown.min_pair_distance",
+            m,
+            "must lie in [0, 1)",
+        )?;
+        if let Some(v) = b.max_speed {
+            c.positive("breakdown.max_speed", v)?;
+        }
+        let r = b.min_dt_ratio;
+        c.require(
+            r > 0.0 && r < 1.0,
+            "breakdown.min_dt_ratio",
+            r,
+            "must lie in (0, 1)",
+        )
     }
 }

@@ -141,7 +141,7 @@ fn step_loop<const D: usize>(
     if let Some(b) = &t.breakdown {
         rec.snapshot(sim, "breakdown_last_good_state.vtu")?;
         rec.metrics_row(sim)?;
-        write_breakdown(b, rec.out_dir())?;
+        write_breakdown(b, rec.out_dir(), sim.case.output.vtu)?;
     } else if sim.step_count != last_output_step || rec.outputs == 1 {
         output(rec, sim, observer)?;
     }
@@ -177,8 +177,9 @@ fn following_output(next: f64, now: f64, interval: f64) -> f64 {
     next + ((now - next) / interval).floor().max(0.0) * interval + interval
 }
 
-/// `breakdown.toml`: time, step, reason and the particles involved.
-fn write_breakdown(b: &Breakdown, out: &Path) -> Result<()> {
+/// `breakdown.toml`: time, step, reason and the particles involved (and where the last good
+/// state is, when VTU output is on).
+fn write_breakdown(b: &Breakdown, out: &Path, vtu: bool) -> Result<()> {
     let record = BreakdownRecord {
         time: b.time,
         step: b.step,
@@ -186,8 +187,13 @@ fn write_breakdown(b: &Breakdown, out: &Path) -> Result<()> {
         message: b.to_string(),
         particles: b.particles.clone(),
     };
+    let state = if vtu {
+        "the last good state is in breakdown_last_good_state.vtu"
+    } else {
+        "no particle file was written (output.vtu = false); checkpoint.bin holds the last output"
+    };
     let text = format!(
-        "# The run broke down; the last good state is in breakdown_last_good_state.vtu.\n{}",
+        "# The run broke down; {state}.\n{}",
         toml::to_string(&record).expect("a breakdown record serialises")
     );
     write_atomic(&out.join("breakdown.toml"), text.as_bytes())

@@ -361,6 +361,19 @@ impl<const D: usize> Simulation<D> {
             .reduce(|| (f64::INFINITY, 0), |a, b| (a.0.min(b.0), a.1 + b.1))
     }
 
+    /// Ids of a fluid particle and its neighbour at distance `r` (m), the closest pair of
+    /// [`Self::pair_metrics`] (for the breakdown record).
+    fn pair_at(&self, pred: &Predicted<D>, surf: &DensitySurface, r: f64) -> Vec<u32> {
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+        let re = self.kernels.grad.re;
+        (0..pred.pos.len())
+            .filter(|&i| v.kind[i] == Kind::Fluid)
+            .find_map(|i| v.pairs(i, re).find(|q| q.r == r).map(|q| (i, q.j)))
+            .map_or_else(Vec::new, |(i, j)| {
+                vec![self.particles.id[i], self.particles.id[j]]
+            })
+    }
+
     /// Stage 6: `u = u* + dt a`, `r = r* + dt^2 a` with `a` the pressure and DS
     /// accelerations; the new state is checked and stored (the step restores the old one on
     /// failure). Returns the largest fluid speed (m/s).
@@ -386,7 +399,12 @@ impl<const D: usize> Simulation<D> {
                 (pred.vel[i] + a * dt, pred.pos[i] + a * (dt * dt))
             })
             .unzip();
-        let result = check_state(p, &pos, &vel, &pressure, min_pair, &self.limits());
+        let mut result = check_state(p, &pos, &vel, &pressure, min_pair, &self.limits());
+        if let Err(f) = &mut result {
+            if matches!(f.reason, BreakdownReason::Penetration { .. }) {
+                f.particles = self.pair_at(&pred, &surf, min_pair);
+            }
+        }
         let p = &mut self.particles;
         p.velocity = vel;
         p.position = pos;
