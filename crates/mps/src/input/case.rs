@@ -7,11 +7,11 @@ use super::overrides::apply_override;
 use super::scheme_spec::SchemeSpec;
 use crate::error::CaseError;
 use crate::linalg::SolverKind;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// A complete simulation case.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
     /// Short name, used for the default output folder.
@@ -67,7 +67,7 @@ fn default_dimension() -> usize {
 }
 
 /// The simulation box.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct DomainSpec {
     /// Lower corner (m).
@@ -81,7 +81,7 @@ pub struct DomainSpec {
 }
 
 /// Where a closed domain's pressure level is set.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct PressureReferenceSpec {
     /// Reference point (m); default the highest fluid particle.
@@ -93,7 +93,7 @@ pub struct PressureReferenceSpec {
 }
 
 /// Particle spacing and kernel radii.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ParticleSpec {
     /// Initial particle spacing `l0` (m).
@@ -117,7 +117,7 @@ fn default_re_lap() -> f64 {
 }
 
 /// Body forces.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct PhysicsSpec {
     /// Gravitational acceleration (m/s^2).
@@ -138,7 +138,7 @@ fn default_gravity() -> Vec<f64> {
 }
 
 /// Time stepping.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct TimeSpec {
     /// End time (s).
@@ -162,7 +162,7 @@ fn default_courant() -> f64 {
 }
 
 /// Pressure solver settings.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSpec {
     /// Which solver.
@@ -197,7 +197,7 @@ fn default_max_iter() -> usize {
 }
 
 /// Output settings.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
     /// Interval between output steps (s); 0 writes only the first and last state.
@@ -229,7 +229,7 @@ fn default_true() -> bool {
 }
 
 /// A material.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct PhaseSpec {
     /// Name used by regions.
@@ -242,7 +242,7 @@ pub struct PhaseSpec {
 }
 
 /// A geometric shape.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeSpec {
     /// Axis-aligned box between two corners (m).
@@ -284,7 +284,7 @@ pub enum ShapeSpec {
 }
 
 /// Initial velocity of a fluid region.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum VelocitySpec {
     /// The same velocity everywhere (m/s).
@@ -322,7 +322,7 @@ pub enum VelocitySpec {
 }
 
 /// Initial pressure of a fluid region: a built-in analytic field.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum PressureSpec {
     /// Constant pressure (Pa).
@@ -362,7 +362,7 @@ pub enum PressureSpec {
 }
 
 /// A fluid region.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct FluidSpec {
     /// Name of its phase.
@@ -384,7 +384,7 @@ pub struct FluidSpec {
 }
 
 /// A solid wall region.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct WallSpec {
     /// Its shape.
@@ -392,7 +392,7 @@ pub struct WallSpec {
 }
 
 /// A pressure probe.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProbeSpec {
     /// Name (CSV column).
@@ -402,7 +402,7 @@ pub struct ProbeSpec {
 }
 
 /// Breakdown criteria (cases.md, "Breakdown").
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BreakdownSpec {
     /// Interpenetration: a pair closer than this fraction of `l0`.
@@ -434,7 +434,7 @@ fn default_min_dt_ratio() -> f64 {
 }
 
 /// A comparison against reference data, written by the run.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ValidationSpec {
     /// Dam-break front against Martin & Moyce (1952): `Z = front/L` against `T = t sqrt(2g/L)`.
@@ -566,6 +566,27 @@ impl Case {
         self.scheme.resolve(courant, label)
     }
 
+    /// A fingerprint of everything that shapes the particle state (domain, particles, physics,
+    /// time stepping, scheme, solver, phases, regions, walls, constants), not of what only
+    /// says how long to run or what to write (end time, step limit, output, probes,
+    /// validation, breakdown limits): a checkpoint of this case may continue under any of
+    /// those. FNV-1a 64 of the canonical TOML.
+    pub fn fingerprint(&self) -> u64 {
+        let mut c = self.clone();
+        c.name = String::new();
+        c.description = String::new();
+        c.time.end = 0.0;
+        c.time.max_steps = None;
+        c.output = OutputSpec::default();
+        c.probes = Vec::new();
+        c.validation = None;
+        c.breakdown = BreakdownSpec::default();
+        let text = toml::to_string(&c).expect("a case serialises");
+        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+    }
+
     /// Index of the phase called `name`.
     pub fn phase_index(&self, name: &str) -> Option<usize> {
         self.phases.iter().position(|p| p.name == name)
@@ -679,6 +700,23 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         )
         .unwrap_err();
         assert_eq!(e.field, "particles.spacing", "{e}");
+    }
+
+    #[test]
+    fn the_fingerprint_ignores_how_long_and_what_to_write_but_not_the_physics() {
+        let base = Case::from_str_named(MINIMAL, "t.toml", &[])
+            .unwrap()
+            .fingerprint();
+        let with = |k: &str, v: &str| {
+            Case::from_str_named(MINIMAL, "t.toml", &[(k.into(), v.into())])
+                .unwrap()
+                .fingerprint()
+        };
+        assert_eq!(with("time.end", "5.0"), base);
+        assert_eq!(with("output.interval", "0.2"), base);
+        assert_ne!(with("physics.gravity", "[0.0, -1.0]"), base);
+        assert_ne!(with("scheme.name", "MPS-HS-GC-DS"), base);
+        assert_ne!(with("domain.max", "[1.0, 2.0]"), base);
     }
 
     #[test]

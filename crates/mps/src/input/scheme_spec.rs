@@ -10,10 +10,10 @@ use crate::numerics::source::{DriftControl, HsNormalization, SourceModel};
 use crate::numerics::stabilization::{DsWeighting, DynamicStabilization};
 use crate::numerics::surface::SurfaceDetector;
 use crate::numerics::walls::WallPressure;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Dynamic Stabilization options (equations.md section 6).
-#[derive(Debug, Clone, Default, Deserialize)]
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct DsSpec {
     /// Switch DS on or off (default: from the preset).
@@ -28,7 +28,7 @@ pub struct DsSpec {
 }
 
 /// Collision model options (equations.md section 5, step 2).
-#[derive(Debug, Clone, Default, Deserialize)]
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct CollisionSpec {
     /// Switch the collision model on or off (default: from the preset).
@@ -40,7 +40,7 @@ pub struct CollisionSpec {
 }
 
 /// Scheme: a named preset and optional overrides of its parts.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SchemeSpec {
     /// Preset: `MPS`, `CMPS-HS`, `MPS-HS-GC` or `MPS-HS-GC-DS`.

@@ -10,13 +10,15 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The file's first bytes: format name and version.
-const MAGIC: &[u8; 8] = b"MPSCKPT2";
+const MAGIC: &[u8; 8] = b"MPSCKPT3";
 
 /// What a checkpoint holds.
 #[derive(Serialize, Deserialize)]
 struct State<const D: usize> {
     /// Space dimension.
     dimension: u32,
+    /// [`crate::input::Case::fingerprint`] of the case that wrote it.
+    case: u64,
     /// Simulated time (s).
     time: f64,
     /// Steps taken.
@@ -29,6 +31,7 @@ struct State<const D: usize> {
 pub fn checkpoint_bytes<const D: usize>(sim: &Simulation<D>) -> Vec<u8> {
     let state = State {
         dimension: D as u32,
+        case: sim.case.fingerprint(),
         time: sim.time,
         step: sim.step_count,
         particles: sim.particles.clone(),
@@ -85,6 +88,11 @@ pub fn restore<const D: usize>(sim: &mut Simulation<D>, bytes: &[u8], path: &Pat
             "checkpoint is {}D, the case is {D}D",
             state.dimension
         )));
+    }
+    if state.case != sim.case.fingerprint() {
+        return Err(bad(
+            "written by another case: only time.end, max_steps, output, probes, validation and breakdown limits may change for a restart".into(),
+        ));
     }
     if !state.time.is_finite() || state.time < 0.0 {
         return Err(bad(format!("time {} is not a valid time", state.time)));
