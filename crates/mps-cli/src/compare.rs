@@ -38,6 +38,10 @@ pub struct CompareArgs {
     /// Draw velocity vectors in the figure.
     #[arg(long)]
     vectors: bool,
+    /// Replace a comparison already in the output folder (the schemes' run files and the
+    /// comparison files are cleared first).
+    #[arg(long)]
+    force: bool,
 }
 
 pub fn cmd_compare(a: CompareArgs) -> CmdResult {
@@ -59,7 +63,7 @@ pub fn cmd_compare(a: CompareArgs) -> CmdResult {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(format!("{name}_compare")));
-    std::fs::create_dir_all(&out).map_err(|e| io_error(&out, e))?;
+    prepare_comparison(&out, &a.schemes, a.force)?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     // Every run gets a full-size pool: when some schemes break down early the others keep
     // all cores (results do not depend on the thread count).
@@ -133,6 +137,42 @@ pub fn cmd_compare(a: CompareArgs) -> CmdResult {
         out.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Prepares the comparison folder: refused when it holds files, unless `force`, which
+/// clears the comparison's own files and each scheme folder's run files.
+fn prepare_comparison(
+    out: &std::path::Path,
+    schemes: &[String],
+    force: bool,
+) -> Result<(), Failure> {
+    std::fs::create_dir_all(out).map_err(|e| io_error(out, e))?;
+    let holds = std::fs::read_dir(out)
+        .map_err(|e| io_error(out, e))?
+        .next()
+        .is_some();
+    if holds && !force {
+        return Err(bad(format!(
+            "{}: already holds files; use --force to replace the comparison there",
+            out.display()
+        )));
+    }
+    for f in [
+        "compare.md",
+        "compare.csv",
+        "compare_metrics.csv",
+        "compare.png",
+        "report.html",
+    ] {
+        let p = out.join(f);
+        if p.exists() {
+            std::fs::remove_file(&p).map_err(|e| io_error(&p, e))?;
+        }
+    }
+    for scheme in schemes {
+        mps::run::recorder::prepare_folder(&out.join(scheme), true)?;
+    }
+    Ok(())
 }
 
 /// The side-by-side figure: one row per scheme, one column per time, one colour scale; a

@@ -102,6 +102,10 @@ struct RunArgs {
     /// later `time.end`); output goes to `--out` or `restart_t<time>` beside the checkpoint.
     #[arg(long, value_name = "CHECKPOINT")]
     restart: Option<PathBuf>,
+    /// Replace a run already in the output folder (its files are cleared first; other files
+    /// stay). Without it, a folder that holds files is refused.
+    #[arg(long)]
+    force: bool,
     /// Render every N-th snapshot to `OUT/figures/` (pressure, with vectors) as the run goes.
     #[arg(long, value_name = "N")]
     render_every: Option<usize>,
@@ -342,6 +346,7 @@ fn cmd_run(a: RunArgs) -> CmdResult {
             out.display()
         );
     }
+    mps::run::recorder::prepare_folder(&out, a.force)?;
     save_case(&a.case, &out)?;
     let mut rep = Reporter::new(a.quiet, end);
     rep.render_every = a.render_every;

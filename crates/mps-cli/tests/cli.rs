@@ -340,3 +340,53 @@ fn render_plot_and_report_a_run() {
         "screenshot looks blank ({non_white} dark pixels)"
     );
 }
+
+/// A run into a folder that holds files is refused (exit 1, one line) unless --force, which
+/// clears the earlier run's files (no stale snapshot stays) and keeps the user's own.
+#[test]
+fn a_second_run_into_a_folder_needs_force_and_leaves_nothing_stale() {
+    let dir = std::env::temp_dir().join(format!("mps_cli_force_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let run = |interval: &str, force: bool| {
+        let mut c = mps();
+        c.args([
+            "run",
+            "--example",
+            "dam_break",
+            "-q",
+            "--set",
+            "time.max_steps=6",
+        ])
+        .args(["--set", "particles.spacing=0.0073", "--set"])
+        .arg(format!("output.interval={interval}"))
+        .arg("--out")
+        .arg(&dir);
+        if force {
+            c.arg("--force");
+        }
+        c.output().unwrap()
+    };
+    assert!(run("0.001", false).status.success());
+    let snapshots = |d: &std::path::Path| {
+        std::fs::read_dir(d)
+            .unwrap()
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".vtu"))
+            .count()
+    };
+    let many = snapshots(&dir);
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    let again = run("0", false);
+    assert_eq!(again.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&again.stderr);
+    assert!(
+        err.contains("--force") && err.trim().lines().count() == 1,
+        "{err}"
+    );
+    assert!(run("0", true).status.success());
+    assert!(snapshots(&dir) < many, "stale snapshots stayed");
+    assert!(
+        dir.join("notes.txt").exists(),
+        "the user's file was removed"
+    );
+}

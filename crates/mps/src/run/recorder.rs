@@ -15,6 +15,66 @@ use crate::simulation::{Simulation, StepReport};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+/// True for the name of a file or folder a run writes into its folder (and the figures and
+/// report made from it): what `--force` may clear before a new run there.
+pub fn is_run_file(name: &str) -> bool {
+    const FILES: [&str; 14] = [
+        "particles.pvd",
+        "metrics.csv",
+        "steps.csv",
+        "probes.csv",
+        "probes_smoothed.csv",
+        "groups.csv",
+        "front.csv",
+        "dam_break_front.csv",
+        "summary.toml",
+        "breakdown.toml",
+        "breakdown_last_good_state.vtu",
+        "checkpoint.bin",
+        "case.toml",
+        "report.html",
+    ];
+    FILES.contains(&name)
+        || name == "figures"
+        || (name.starts_with("particles_") && name.ends_with(".vtu"))
+        || (name.starts_with('.') && name.contains(".tmp"))
+}
+
+/// Prepares `dir` for a run: created if missing; a folder holding files refuses unless
+/// `force`, which clears the files a run writes (others stay). Returns the files cleared.
+pub fn prepare_folder(dir: &Path, force: bool) -> Result<usize> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io(dir, e))?;
+    let entries: Vec<std::fs::DirEntry> = std::fs::read_dir(dir)
+        .map_err(|e| crate::Error::io(dir, e))?
+        .flatten()
+        .collect();
+    if entries.is_empty() {
+        return Ok(0);
+    }
+    if !force {
+        return Err(crate::Error::Format {
+            path: dir.to_path_buf(),
+            message: "already holds files; use --force to replace the run there".into(),
+        });
+    }
+    let mut cleared = 0;
+    for e in entries {
+        let name = e.file_name().to_string_lossy().to_string();
+        if !is_run_file(&name) {
+            continue;
+        }
+        let path = e.path();
+        let done = if path.is_dir() {
+            std::fs::remove_dir_all(&path)
+        } else {
+            std::fs::remove_file(&path)
+        };
+        done.map_err(|err| crate::Error::io(&path, err))?;
+        cleared += 1;
+    }
+    Ok(cleared)
+}
+
 /// One row of `steps.csv`.
 #[derive(Serialize)]
 struct StepRow {
