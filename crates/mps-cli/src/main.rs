@@ -21,7 +21,7 @@ use failure::{bad, io_error, CmdResult, Failure};
 use indicatif::{ProgressBar, ProgressStyle};
 use mps::analysis::RunSummary;
 use mps::examples::EXAMPLES;
-use mps::run::{run, Observer, Progress};
+use mps::run::{run_from, Observer, Progress};
 use mps::{Case, Simulation};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -99,7 +99,8 @@ struct RunArgs {
     #[arg(long, value_parser = parse_threads)]
     threads: Option<usize>,
     /// Continue from a checkpoint written by an earlier run of the same case (e.g. with a
-    /// later `time.end`); output goes to `--out` or `restart_t<time>` beside the checkpoint.
+    /// later `time.end`): in the checkpoint's own folder (or `--out`), every series and
+    /// snapshot of the earlier run up to the checkpoint carried over, as if uninterrupted.
     #[arg(long, value_name = "CHECKPOINT")]
     restart: Option<PathBuf>,
     /// Replace a run already in the output folder (its files are cleared first; other files
@@ -281,8 +282,8 @@ fn restart(sim: &mut Simulation<2>, ck: &Path, quiet: bool) -> Result<PathBuf, F
             sim.step_count
         );
     }
-    let dir = ck.parent().unwrap_or(Path::new("."));
-    Ok(dir.join(format!("restart_t{:.4}", sim.time)))
+    let dir = ck.parent().filter(|d| !d.as_os_str().is_empty());
+    Ok(dir.unwrap_or(Path::new(".")).to_path_buf())
 }
 
 /// Keeps the case beside its output (the report shows it; a rerun starts from it).
@@ -326,11 +327,13 @@ fn cmd_run(a: RunArgs) -> CmdResult {
     let end = case.time.end;
     let vtu = case.output.vtu;
     let mut sim = Simulation::<2>::new(case, &label)?;
+    let mut resumed = None;
     if let Some(ck) = &a.restart {
         let dir = restart(&mut sim, ck, a.quiet)?;
         if a.out.is_none() {
-            out = dir;
+            out = dir.clone();
         }
+        resumed = Some(dir);
     }
     if !a.quiet {
         let p = &sim.particles;
@@ -346,11 +349,16 @@ fn cmd_run(a: RunArgs) -> CmdResult {
             out.display()
         );
     }
-    mps::run::recorder::prepare_folder(&out, a.force)?;
+    let in_place = resumed
+        .as_deref()
+        .is_some_and(|d| d.canonicalize().ok() == out.canonicalize().ok());
+    if !in_place {
+        mps::run::recorder::prepare_folder(&out, a.force)?;
+    }
     save_case(&a.case, &out)?;
     let mut rep = Reporter::new(a.quiet, end);
     rep.render_every = a.render_every;
-    let summary = run(&mut sim, &out, &mut rep)?;
+    let summary = run_from(&mut sim, &out, resumed.as_deref(), &mut rep)?;
     if let Some(b) = &rep.bar {
         b.finish_and_clear();
     }

@@ -208,11 +208,17 @@ fn restart_extends_a_run() {
     );
     let summary = std::fs::read_to_string(more.join("summary.toml")).unwrap();
     assert!(summary.contains("time = 0.04"), "{summary}");
+    // The earlier run's rows are carried over: the series starts at 0 and reaches 0.04.
     let metrics = std::fs::read_to_string(more.join("metrics.csv")).unwrap();
-    assert!(
-        metrics.lines().nth(1).unwrap().starts_with("0.02"),
+    let time = |line: &str| -> f64 { line.split(',').next().unwrap().parse().unwrap() };
+    assert_eq!(
+        metrics.lines().filter(|l| l.starts_with("time")).count(),
+        1,
         "{metrics}"
     );
+    assert_eq!(time(metrics.lines().nth(1).unwrap()), 0.0, "{metrics}");
+    assert_eq!(time(metrics.lines().last().unwrap()), 0.04, "{metrics}");
+    assert_eq!(metrics.lines().count(), 1 + 5, "{metrics}");
     let junk = dir.join("junk.bin");
     std::fs::write(&junk, b"not a checkpoint").unwrap();
     let out = mps()
@@ -389,4 +395,114 @@ fn a_second_run_into_a_folder_needs_force_and_leaves_nothing_stale() {
         dir.join("notes.txt").exists(),
         "the user's file was removed"
     );
+}
+
+/// A run killed (SIGKILL) three times, each time restarted in place from its last checkpoint,
+/// ends with every file identical to an uninterrupted run: snapshots, index, checkpoint and
+/// every series byte for byte, the summary but for its timings.
+#[test]
+fn a_killed_and_restarted_run_ends_identical_to_an_uninterrupted_one() {
+    let base = std::env::temp_dir().join(format!("mps_cli_kill_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let (straight, killed) = (base.join("straight"), base.join("killed"));
+    let args = [
+        "run",
+        "--example",
+        "dam_break",
+        "-q",
+        "--threads",
+        "1",
+        "--set",
+        "particles.spacing=0.0073",
+        "--set",
+        "time.end=0.12",
+        "--set",
+        "output.interval=0.01",
+    ];
+    let out = mps()
+        .args(args)
+        .arg("--out")
+        .arg(&straight)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let outputs = |d: &std::path::Path| {
+        std::fs::read_to_string(d.join("metrics.csv"))
+            .map_or(0, |t| t.lines().count().saturating_sub(1))
+    };
+    // Kill after 3, 6 and 9 outputs, restarting in place after each kill.
+    let mut first = true;
+    for at in [3, 6, 9] {
+        let mut c = mps();
+        c.args(args);
+        if first {
+            c.arg("--out").arg(&killed);
+        } else {
+            c.arg("--restart").arg(killed.join("checkpoint.bin"));
+        }
+        first = false;
+        let mut child = c.spawn().unwrap();
+        let start = std::time::Instant::now();
+        while outputs(&killed) < at && start.elapsed() < std::time::Duration::from_secs(60) {
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+    let out = mps()
+        .args(args)
+        .arg("--restart")
+        .arg(killed.join("checkpoint.bin"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let names = |d: &std::path::Path| {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().to_string())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(names(&straight), names(&killed));
+    for name in names(&straight) {
+        let (a, b) = (straight.join(&name), killed.join(&name));
+        if name == "summary.toml" {
+            let strip = |p: &std::path::Path| -> Vec<String> {
+                std::fs::read_to_string(p)
+                    .unwrap()
+                    .lines()
+                    .filter(|l| {
+                        !["wall_seconds", "particle_steps_per_second", "threads"]
+                            .iter()
+                            .any(|k| l.starts_with(k))
+                            && !l.starts_with("stages")
+                            && !l.starts_with("    [\"")
+                            && !l.starts_with("    \"")
+                            && !l.contains("\", ")
+                    })
+                    .map(String::from)
+                    .collect()
+            };
+            assert_eq!(strip(&a), strip(&b), "summary.toml");
+        } else if name != "case.toml" {
+            assert!(
+                std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
+                "{name} differs"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&base).unwrap();
 }

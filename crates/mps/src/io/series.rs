@@ -21,6 +21,8 @@ pub enum Cell {
 pub struct Series {
     path: PathBuf,
     writer: csv::Writer<BufWriter<File>>,
+    /// Whether the header is still to come from the first typed row.
+    header_pending: bool,
 }
 
 impl Series {
@@ -37,6 +39,7 @@ impl Series {
         Ok(Series {
             path: path.to_path_buf(),
             writer,
+            header_pending: header.is_none(),
         })
     }
 
@@ -45,6 +48,30 @@ impl Series {
         self.writer
             .serialize(row)
             .map_err(|e| csv_error(&self.path, e))
+    }
+
+    /// Appends one row as written by an earlier run (text fields, carried over unchanged).
+    pub fn push_record(&mut self, fields: &[String]) -> Result<()> {
+        self.writer
+            .write_record(fields)
+            .map_err(|e| csv_error(&self.path, e))
+    }
+
+    /// Starts the file with an earlier run's `header` and `rows`; typed rows pushed after
+    /// these add no second header.
+    pub fn carry(&mut self, header: &[String], rows: &[Vec<String>]) -> Result<()> {
+        if self.header_pending {
+            let file = File::create(&self.path).map_err(|e| Error::io(&self.path, e))?;
+            self.writer = csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(BufWriter::new(file));
+            self.header_pending = false;
+            self.push_record(header)?;
+        }
+        for r in rows {
+            self.push_record(r)?;
+        }
+        Ok(())
     }
 
     /// Writes everything appended so far to the file.
@@ -73,6 +100,37 @@ pub fn read_rows<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Vec<T>> 
             path: path.to_path_buf(),
             message: format!("not a valid series: {e}"),
         })
+}
+
+/// A CSV file as text: its header and its rows, each field as written.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Records {
+    /// Column names.
+    pub header: Vec<String>,
+    /// The rows' fields.
+    pub rows: Vec<Vec<String>>,
+}
+
+/// The header and the rows (text fields) of a CSV file; `None` when there is no file.
+pub fn read_records(path: &Path) -> Result<Option<Records>> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let mut r = csv::Reader::from_path(path).map_err(|e| csv_error(path, e))?;
+    let header = r
+        .headers()
+        .map_err(|e| csv_error(path, e))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let rows = r
+        .records()
+        .map(|rec| {
+            rec.map(|x| x.iter().map(str::to_string).collect())
+                .map_err(|e| csv_error(path, e))
+        })
+        .collect::<Result<Vec<Vec<String>>>>()?;
+    Ok(Some(Records { header, rows }))
 }
 
 /// A numeric CSV file as columns.

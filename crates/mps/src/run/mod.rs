@@ -5,7 +5,7 @@
 
 pub mod recorder;
 
-use crate::analysis::groups::{group_states, GroupState};
+use crate::analysis::groups::group_states;
 use crate::analysis::metrics::Metrics;
 use crate::analysis::probes::{noise, smooth, SMOOTHING_WINDOW};
 use crate::analysis::validation::{
@@ -54,10 +54,8 @@ pub trait Observer {
 pub struct Silent;
 impl Observer for Silent {}
 
-/// What the loop gathers over the steps for the summary.
+/// What the loop gathers for the summary.
 struct Totals {
-    iterations: u64,
-    min_pair_l0: f64,
     breakdown: Option<Breakdown>,
     wall_seconds: f64,
 }
@@ -102,8 +100,6 @@ fn step_loop<const D: usize>(
         eps
     };
     let mut t = Totals {
-        iterations: 0,
-        min_pair_l0: f64::INFINITY,
         breakdown: None,
         wall_seconds: 0.0,
     };
@@ -117,8 +113,6 @@ fn step_loop<const D: usize>(
                 break;
             }
         };
-        t.iterations += r.solve.iterations as u64;
-        t.min_pair_l0 = t.min_pair_l0.min(r.min_pair_distance / sim.l0());
         rec.step(sim, &r)?;
         rec.sample(sim)?;
         if sim.time >= next_out - eps_out && sim.time < end - eps {
@@ -142,7 +136,7 @@ fn step_loop<const D: usize>(
         rec.snapshot(sim, "breakdown_last_good_state.vtu")?;
         rec.metrics_row(sim)?;
         write_breakdown(b, rec.out_dir(), sim.case.output.vtu)?;
-    } else if sim.step_count != last_output_step || rec.outputs == 1 {
+    } else if sim.step_count != last_output_step || rec.outputs <= 1 {
         output(rec, sim, observer)?;
     }
     rec.flush()?;
@@ -217,20 +211,42 @@ pub fn run<const D: usize>(
     out: &Path,
     observer: &mut dyn Observer,
 ) -> Result<RunSummary> {
+    run_from(sim, out, None, observer)
+}
+
+/// Runs `sim` to its end time, writing into `out`; when `resumed` names the folder of the
+/// checkpoint `sim` was restored from, the earlier run's series and snapshots up to the
+/// checkpoint are carried into `out` and the summary covers the whole run, so every file
+/// ends as if the run had not been interrupted.
+pub fn run_from<const D: usize>(
+    sim: &mut Simulation<D>,
+    out: &Path,
+    resumed: Option<&Path>,
+    observer: &mut dyn Observer,
+) -> Result<RunSummary> {
     std::fs::create_dir_all(out).at(out)?;
     let front_wall = match &sim.case.validation {
         Some(ValidationSpec::DamBreak { wall_x, .. }) => Some(*wall_x),
         _ => None,
     };
-    let mut rec = Recorder::create(sim, out, front_wall)?;
-    rec.sample(sim)?;
-    output(&mut rec, sim, observer)?;
-    let m0 = Metrics::measure(sim);
-    let groups0 = group_states(sim, rec.group_names.len());
+    let mut rec = match resumed {
+        Some(from) => {
+            // The checkpoint's output is in the earlier rows; the solver set-up was dropped
+            // there too.
+            sim.reset_solver_cache();
+            Recorder::resume(sim, out, front_wall, from)?
+        }
+        None => {
+            let mut rec = Recorder::create(sim, out, front_wall)?;
+            rec.sample(sim)?;
+            output(&mut rec, sim, observer)?;
+            rec
+        }
+    };
     let totals = step_loop(sim, &mut rec, observer)?;
     write_smoothed_probes(sim, &rec, out)?;
     let validation = validate(sim, &rec, out)?;
-    let summary = summarise(sim, &rec, &totals, &m0, &groups0, validation);
+    let summary = summarise(sim, &rec, &totals, validation);
     write_atomic(&out.join("summary.toml"), summary.to_toml().as_bytes())?;
     Ok(summary)
 }
@@ -354,11 +370,10 @@ fn summarise<const D: usize>(
     sim: &Simulation<D>,
     rec: &Recorder<D>,
     t: &Totals,
-    m0: &Metrics,
-    groups0: &[GroupState<D>],
     validation: Vec<ValidationResult>,
 ) -> RunSummary {
     let m1 = Metrics::measure(sim);
+    let m0 = rec.first_metrics.clone().unwrap_or_else(|| m1.clone());
     let total = sim.particles.len();
     RunSummary {
         case: sim.case.name.clone(),
@@ -372,7 +387,7 @@ fn summarise<const D: usize>(
         end_time: sim.case.time.end,
         wall_seconds: t.wall_seconds,
         particle_steps_per_second: total as f64 * sim.step_count as f64 / t.wall_seconds.max(1e-9),
-        mean_ppe_iterations: t.iterations as f64 / sim.step_count.max(1) as f64,
+        mean_ppe_iterations: rec.iterations as f64 / sim.step_count.max(1) as f64,
         solver_fallbacks: sim.solver.fallbacks,
         breakdown: t.breakdown.as_ref().map(|b| b.to_string()),
         breakdown_time: t.breakdown.as_ref().map(|b| b.time),
@@ -386,7 +401,7 @@ fn summarise<const D: usize>(
         threads: rayon::current_num_threads(),
         kinetic_energy: (m0.kinetic_energy, m1.kinetic_energy),
         angular_momentum: (m0.angular_momentum, m1.angular_momentum),
-        min_pair_distance_l0: t.min_pair_l0,
+        min_pair_distance_l0: rec.min_pair_l0,
         nd_spread_end: m1.nd_spread,
         rms_speed_end: m1.rms_speed,
         probes: rec
@@ -401,7 +416,7 @@ fn summarise<const D: usize>(
             .zip(&sim.case.probes)
             .map(|(s, p)| (p.name.clone(), noise(s, SMOOTHING_WINDOW)))
             .collect(),
-        groups: group_summaries(sim, rec, groups0),
+        groups: group_summaries(sim, rec),
     }
 }
 
@@ -415,11 +430,7 @@ fn group_density<const D: usize>(sim: &Simulation<D>, k: usize) -> Option<f64> {
 
 /// Each group's arrival time (heavier groups at the bottom, lighter ones at the free
 /// surface, within the validation distance), strays and centroids.
-fn group_summaries<const D: usize>(
-    sim: &Simulation<D>,
-    rec: &Recorder<D>,
-    start: &[GroupState<D>],
-) -> Vec<GroupSummary> {
+fn group_summaries<const D: usize>(sim: &Simulation<D>, rec: &Recorder<D>) -> Vec<GroupSummary> {
     let end = group_states(sim, rec.group_names.len());
     let (bottom, surface, distance) = match &sim.case.validation {
         Some(ValidationSpec::Groups {
@@ -451,7 +462,9 @@ fn group_summaries<const D: usize>(
                     .map(|s| s.0),
                 stray_end: end[k].stray,
                 centroid: (
-                    (start[k].centroid[0], start[k].centroid[D - 1]),
+                    rec.group_series
+                        .first()
+                        .map_or((f64::NAN, f64::NAN), |s| s.1[k]),
                     (end[k].centroid[0], end[k].centroid[D - 1]),
                 ),
             }

@@ -7,7 +7,7 @@ use crate::analysis::metrics::{front_position, Metrics};
 use crate::error::Result;
 use crate::input::case::ValidationSpec;
 use crate::io::checkpoint::write_checkpoint;
-use crate::io::series::{Cell, Series};
+use crate::io::series::{read_records, Cell, Records, Series};
 use crate::io::vtu::{pvd_bytes, vtu_bytes};
 use crate::io::write_atomic;
 use crate::particles::Vector;
@@ -43,16 +43,16 @@ pub fn is_run_file(name: &str) -> bool {
 /// Prepares `dir` for a run: created if missing; a folder holding files refuses unless
 /// `force`, which clears the files a run writes (others stay). Returns the files cleared.
 pub fn prepare_folder(dir: &Path, force: bool) -> Result<usize> {
-    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io(dir, e))?;
+    std::fs::create_dir_all(dir).map_err(|e| crate::error::Error::io(dir, e))?;
     let entries: Vec<std::fs::DirEntry> = std::fs::read_dir(dir)
-        .map_err(|e| crate::Error::io(dir, e))?
+        .map_err(|e| crate::error::Error::io(dir, e))?
         .flatten()
         .collect();
     if entries.is_empty() {
         return Ok(0);
     }
     if !force {
-        return Err(crate::Error::Format {
+        return Err(crate::error::Error::Format {
             path: dir.to_path_buf(),
             message: "already holds files; use --force to replace the run there".into(),
         });
@@ -69,7 +69,7 @@ pub fn prepare_folder(dir: &Path, force: bool) -> Result<usize> {
         } else {
             std::fs::remove_file(&path)
         };
-        done.map_err(|err| crate::Error::io(&path, err))?;
+        done.map_err(|err| crate::error::Error::io(&path, err))?;
         cleared += 1;
     }
     Ok(cleared)
@@ -118,6 +118,111 @@ pub struct Recorder<const D: usize> {
     /// Per output, for an elliptic-drop validation: time and the semi-axes (s, m, m).
     pub axes_series: Vec<(f64, f64, f64)>,
     axes_center: Option<Vector<D>>,
+    tracks: Option<Series>,
+    axes: Option<Series>,
+    /// The metrics of the first output (the start of the whole run).
+    pub first_metrics: Option<Metrics>,
+    /// PPE iterations summed over the steps so far (a resumed run's earlier ones included).
+    pub iterations: u64,
+    /// Closest pair over the steps so far (units of l0).
+    pub min_pair_l0: f64,
+}
+
+/// The time column's name and whether rows are kept by step (`true`) or time.
+const CARRIED: [(&str, bool); 7] = [
+    ("metrics.csv", true),
+    ("steps.csv", true),
+    ("probes.csv", false),
+    ("front.csv", false),
+    ("groups.csv", false),
+    ("group_tracks.csv", false),
+    ("drop_axes.csv", false),
+];
+
+/// What a resumed run carries over from the folder of its checkpoint: each series' kept rows
+/// and the snapshots up to the checkpoint.
+struct Earlier {
+    series: Vec<(&'static str, Records)>,
+    snapshots: Vec<(f64, String)>,
+    from: PathBuf,
+}
+
+impl Earlier {
+    /// Reads the series and the snapshot index of `from` up to `step` and `time` (s).
+    fn read(from: &Path, step: u64, time: f64) -> Result<Earlier> {
+        let mut series = Vec::new();
+        for (file, by_step) in CARRIED {
+            let Some(mut records) = read_records(&from.join(file))? else {
+                continue;
+            };
+            let key = if by_step { "step" } else { "time" };
+            let Some(k) = records.header.iter().position(|h| h == key) else {
+                continue;
+            };
+            records.rows.retain(|r| {
+                let v: f64 = r.get(k).and_then(|x| x.parse().ok()).unwrap_or(f64::NAN);
+                if by_step {
+                    v <= step as f64
+                } else {
+                    v <= time
+                }
+            });
+            series.push((file, records));
+        }
+        let snapshots = std::fs::read_to_string(from.join("particles.pvd"))
+            .map(|t| crate::io::vtu::read_pvd(&t))
+            .unwrap_or_default()
+            .into_iter()
+            // The index holds times rounded to 1e-9 s.
+            .filter(|s| s.0 <= time + 1e-9 && !s.1.starts_with("breakdown"))
+            .collect();
+        Ok(Earlier {
+            series,
+            snapshots,
+            from: from.to_path_buf(),
+        })
+    }
+
+    /// The kept header and rows of `file` (empty when it was not there).
+    fn records(&self, file: &str) -> Option<&Records> {
+        self.series.iter().find(|r| r.0 == file).map(|r| &r.1)
+    }
+
+    fn rows(&self, file: &str) -> &[Vec<String>] {
+        self.records(file).map_or(&[], |r| r.rows.as_slice())
+    }
+
+    /// The values of column `name` of `file`'s kept rows.
+    fn column(&self, file: &str, name: &str) -> Vec<f64> {
+        let Some(r) = self.records(file) else {
+            return Vec::new();
+        };
+        let Some(k) = r.header.iter().position(|h| h == name) else {
+            return Vec::new();
+        };
+        r.rows
+            .iter()
+            .map(|r| r.get(k).and_then(|x| x.parse().ok()).unwrap_or(f64::NAN))
+            .collect()
+    }
+
+    /// The first kept metrics row, read back as [`Metrics`].
+    fn first_metrics(&self) -> Option<Metrics> {
+        let r = self.records("metrics.csv")?;
+        let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
+        w.write_record(&r.header).ok()?;
+        w.write_record(r.rows.first()?).ok()?;
+        let bytes = w.into_inner().ok()?;
+        csv::Reader::from_reader(bytes.as_slice())
+            .deserialize()
+            .next()?
+            .ok()
+    }
+}
+
+/// The numbers of a row of text fields (NaN where not a number).
+fn numbers(r: &[String]) -> Vec<f64> {
+    r.iter().map(|x| x.parse().unwrap_or(f64::NAN)).collect()
 }
 
 impl<const D: usize> Recorder<D> {
@@ -166,6 +271,25 @@ impl<const D: usize> Recorder<D> {
                 Some(&header("time", cols)),
             )?)
         };
+        let tracks = if group_names.is_empty() {
+            None
+        } else {
+            let cols = group_names
+                .iter()
+                .flat_map(|n| ["x", "y"].map(|c| format!("{n}_{c}")))
+                .collect();
+            Some(Series::create(
+                &out.join("group_tracks.csv"),
+                Some(&header("time", cols)),
+            )?)
+        };
+        let axes = match &case.validation {
+            Some(ValidationSpec::EllipticDrop { .. }) => {
+                let h = header("time", vec!["a".into(), "b".into()]);
+                Some(Series::create(&out.join("drop_axes.csv"), Some(&h))?)
+            }
+            _ => None,
+        };
         let front = match front_wall {
             Some(_) => {
                 let h = header("time", vec!["front".into()]);
@@ -194,7 +318,97 @@ impl<const D: usize> Recorder<D> {
                 Some(ValidationSpec::EllipticDrop { center, .. }) => Vector::from_slice(center),
                 _ => None,
             },
+            tracks,
+            axes,
+            first_metrics: None,
+            iterations: 0,
+            min_pair_l0: f64::INFINITY,
         })
+    }
+
+    /// Opens the writers of a run resumed from a checkpoint in folder `from` at the state of
+    /// `sim`: every series and snapshot of the earlier run up to the checkpoint is carried
+    /// into `out` (which may be `from` itself), so the folder ends as if the run had not been
+    /// interrupted.
+    pub fn resume(
+        sim: &Simulation<D>,
+        out: &Path,
+        front_wall: Option<f64>,
+        from: &Path,
+    ) -> Result<Self> {
+        let earlier = Earlier::read(from, sim.step_count, sim.time)?;
+        let same = out.canonicalize().ok() == from.canonicalize().ok();
+        if same {
+            // Snapshots the interrupted run wrote after its checkpoint go.
+            for e in std::fs::read_dir(out)
+                .map_err(|e| crate::error::Error::io(out, e))?
+                .flatten()
+            {
+                let name = e.file_name().to_string_lossy().to_string();
+                let kept = earlier.snapshots.iter().any(|s| s.1 == name);
+                if name.ends_with(".vtu") && is_run_file(&name) && !kept {
+                    std::fs::remove_file(e.path())
+                        .map_err(|x| crate::error::Error::io(&e.path(), x))?;
+                }
+            }
+        } else {
+            for (_, file) in &earlier.snapshots {
+                let (src, dst) = (earlier.from.join(file), out.join(file));
+                std::fs::copy(&src, &dst).map_err(|e| crate::error::Error::io(&src, e))?;
+            }
+        }
+        let mut rec = Recorder::create(sim, out, front_wall)?;
+        rec.carry(&earlier)?;
+        if !earlier.snapshots.is_empty() {
+            rec.snapshots = earlier.snapshots;
+            write_atomic(&out.join("particles.pvd"), &pvd_bytes(&rec.snapshots))?;
+        }
+        rec.flush()?;
+        Ok(rec)
+    }
+
+    /// Writes the earlier run's rows and reloads the in-memory series from them.
+    fn carry(&mut self, e: &Earlier) -> Result<()> {
+        let targets: [(&str, Option<&mut Series>); 7] = [
+            ("metrics.csv", Some(&mut self.metrics)),
+            ("steps.csv", Some(&mut self.steps)),
+            ("probes.csv", self.probes.as_mut()),
+            ("front.csv", self.front.as_mut()),
+            ("groups.csv", self.groups.as_mut()),
+            ("group_tracks.csv", self.tracks.as_mut()),
+            ("drop_axes.csv", self.axes.as_mut()),
+        ];
+        for (file, series) in targets {
+            if let Some(series) = series {
+                if let Some(r) = e.records(file).filter(|r| !r.rows.is_empty()) {
+                    series.carry(&r.header, &r.rows)?;
+                }
+            }
+        }
+        self.outputs = e.rows("metrics.csv").len();
+        self.first_metrics = e.first_metrics();
+        for it in e.column("steps.csv", "ppe_iterations") {
+            self.iterations += it as u64;
+        }
+        for m in e.column("steps.csv", "min_pair_distance_l0") {
+            self.min_pair_l0 = self.min_pair_l0.min(m);
+        }
+        for r in e.rows("probes.csv").iter().map(|r| numbers(r)) {
+            for (k, s) in self.probe_series.iter_mut().enumerate() {
+                s.push((r[0], r.get(k + 1).copied().unwrap_or(f64::NAN)));
+            }
+        }
+        for r in e.rows("front.csv").iter().map(|r| numbers(r)) {
+            self.front_series.push((r[0], r[1]));
+        }
+        for r in e.rows("group_tracks.csv").iter().map(|r| numbers(r)) {
+            let c = r[1..].chunks_exact(2).map(|c| (c[0], c[1])).collect();
+            self.group_series.push((r[0], c));
+        }
+        for r in e.rows("drop_axes.csv").iter().map(|r| numbers(r)) {
+            self.axes_series.push((r[0], r[1], r[2]));
+        }
+        Ok(())
     }
 
     /// Writes a VTU snapshot of the current state as `name` and adds it to the `.pvd` index;
@@ -220,9 +434,15 @@ impl<const D: usize> Recorder<D> {
         self.outputs += 1;
         let m = Metrics::measure(sim);
         self.metrics.push(&m)?;
+        if self.first_metrics.is_none() {
+            self.first_metrics = Some(m.clone());
+        }
         if let Some(c) = self.axes_center {
             let (a, b) = semi_axes(&sim.particles, c);
             self.axes_series.push((sim.time, a, b));
+            if let Some(series) = &mut self.axes {
+                series.push(&[sim.time, a, b])?;
+            }
         }
         if let Some(series) = &mut self.groups {
             let states = group_states(sim, self.group_names.len());
@@ -268,10 +488,16 @@ impl<const D: usize> Recorder<D> {
         }
         if !self.group_names.is_empty() {
             let states = group_states(sim, self.group_names.len());
-            let centroids = states
+            let centroids: Vec<(f64, f64)> = states
                 .iter()
                 .map(|g| (g.centroid[0], g.centroid[D - 1]))
                 .collect();
+            if let Some(series) = &mut self.tracks {
+                let row: Vec<f64> = std::iter::once(sim.time)
+                    .chain(centroids.iter().flat_map(|c| [c.0, c.1]))
+                    .collect();
+                series.push(&row)?;
+            }
             self.group_series.push((sim.time, centroids));
         }
         if let (Some(series), Some(wx)) = (&mut self.front, self.front_wall) {
@@ -282,8 +508,10 @@ impl<const D: usize> Recorder<D> {
         Ok(())
     }
 
-    /// The row of one step in `steps.csv`.
+    /// The row of one step in `steps.csv` (and the run's totals).
     pub fn step(&mut self, sim: &Simulation<D>, r: &StepReport) -> Result<()> {
+        self.iterations += r.solve.iterations as u64;
+        self.min_pair_l0 = self.min_pair_l0.min(r.min_pair_distance / sim.l0());
         self.steps.push(&StepRow {
             step: sim.step_count,
             time: sim.time,
@@ -309,9 +537,15 @@ impl<const D: usize> Recorder<D> {
     pub fn flush(&mut self) -> Result<()> {
         self.metrics.flush()?;
         self.steps.flush()?;
-        for s in [&mut self.probes, &mut self.groups, &mut self.front]
-            .into_iter()
-            .flatten()
+        for s in [
+            &mut self.probes,
+            &mut self.groups,
+            &mut self.front,
+            &mut self.tracks,
+            &mut self.axes,
+        ]
+        .into_iter()
+        .flatten()
         {
             s.flush()?;
         }
