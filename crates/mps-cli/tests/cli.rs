@@ -6,6 +6,17 @@ fn mps() -> Command {
     Command::new(env!("CARGO_BIN_EXE_mps"))
 }
 
+/// Runs `c` and fails the test with its error output unless it succeeds.
+fn succeed(c: &mut Command) -> std::process::Output {
+    let out = c.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 fn write_case(name: &str, text: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("mps_cli_{}_{}", name, std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -74,25 +85,20 @@ fn list_names_the_examples_and_a_short_run_writes_paraview_files() {
     let s = String::from_utf8_lossy(&out.stdout);
     assert!(s.contains("dam_break") && s.contains("hydrostatic"));
     let dir = std::env::temp_dir().join(format!("mps_cli_run_{}", std::process::id()));
-    let out = mps()
-        .args([
-            "run",
-            "--example",
-            "dam_break",
-            "-q",
-            "--set",
-            "time.max_steps=5",
-            "--set",
-            "particles.spacing=0.0073",
-            "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        mps()
+            .args([
+                "run",
+                "--example",
+                "dam_break",
+                "-q",
+                "--set",
+                "time.max_steps=5",
+                "--set",
+                "particles.spacing=0.0073",
+                "--out",
+            ])
+            .arg(&dir),
     );
     for f in [
         "particles.pvd",
@@ -111,28 +117,23 @@ fn list_names_the_examples_and_a_short_run_writes_paraview_files() {
 #[test]
 fn compare_writes_one_row_per_scheme() {
     let dir = std::env::temp_dir().join(format!("mps_cli_cmp_{}", std::process::id()));
-    let out = mps()
-        .args([
-            "compare",
-            "--example",
-            "square_patch",
-            "--schemes",
-            "MPS-HS-GC,MPS-HS-GC-DS",
-            "--set",
-            "time.max_steps=5",
-            "--set",
-            "output.vtu=false",
-            "--set",
-            "breakdown.min_pair_distance=0.9999",
-            "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        mps()
+            .args([
+                "compare",
+                "--example",
+                "square_patch",
+                "--schemes",
+                "MPS-HS-GC,MPS-HS-GC-DS",
+                "--set",
+                "time.max_steps=5",
+                "--set",
+                "output.vtu=false",
+                "--set",
+                "breakdown.min_pair_distance=0.9999",
+                "--out",
+            ])
+            .arg(&dir),
     );
     let md = std::fs::read_to_string(dir.join("compare.md")).unwrap();
     assert_eq!(
@@ -177,34 +178,24 @@ fn restart_extends_a_run() {
         "--set",
         "output.interval=0.01",
     ];
-    let out = mps()
-        .arg("run")
-        .args(base)
-        .args(["--set", "time.end=0.02", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        mps()
+            .arg("run")
+            .args(base)
+            .args(["--set", "time.end=0.02", "--out"])
+            .arg(&dir),
     );
     let ck = dir.join("checkpoint.bin");
     assert!(ck.exists());
     let more = dir.join("more");
-    let out = mps()
-        .arg("run")
-        .args(base)
-        .args(["--set", "time.end=0.04", "--restart"])
-        .arg(&ck)
-        .arg("--out")
-        .arg(&more)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        mps()
+            .arg("run")
+            .args(base)
+            .args(["--set", "time.end=0.04", "--restart"])
+            .arg(&ck)
+            .arg("--out")
+            .arg(&more),
     );
     let summary = std::fs::read_to_string(more.join("summary.toml")).unwrap();
     assert!(summary.contains("time = 0.04"), "{summary}");
@@ -239,36 +230,26 @@ fn restart_extends_a_run() {
 #[test]
 fn render_plot_and_report_a_run() {
     let dir = std::env::temp_dir().join(format!("mps_cli_report_{}", std::process::id()));
-    let out = mps()
-        .args([
-            "run",
-            "--example",
-            "hydrostatic",
-            "-q",
-            "--set",
-            "time.end=0.05",
-            "--set",
-            "output.interval=0.01",
-            "--out",
-        ])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        mps()
+            .args([
+                "run",
+                "--example",
+                "hydrostatic",
+                "-q",
+                "--set",
+                "time.end=0.05",
+                "--set",
+                "output.interval=0.01",
+                "--out",
+            ])
+            .arg(&dir),
     );
-    let out = mps()
-        .arg("render")
-        .arg(&dir)
-        .args(["--time", "0.02", "--vectors"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = succeed(
+        mps()
+            .arg("render")
+            .arg(&dir)
+            .args(["--time", "0.02", "--vectors"]),
     );
     let png = String::from_utf8_lossy(&out.stdout).trim().to_string();
     assert!(png.ends_with(".png") && std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
@@ -277,12 +258,7 @@ fn render_plot_and_report_a_run() {
     let svg = std::fs::read_to_string(dir.join("figures/metric_kinetic_energy.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("kinetic_energy"));
     assert!(dir.join("figures/probe_bottom.svg").exists());
-    let out = mps().arg("report").arg(&dir).output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeed(mps().arg("report").arg(&dir));
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
     assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
     assert!(html.matches("<svg").count() >= 10, "charts inlined");
@@ -419,17 +395,7 @@ fn a_killed_and_restarted_run_ends_identical_to_an_uninterrupted_one() {
         "--set",
         "output.interval=0.01",
     ];
-    let out = mps()
-        .args(args)
-        .arg("--out")
-        .arg(&straight)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeed(mps().args(args).arg("--out").arg(&straight));
     let outputs = |d: &std::path::Path| {
         std::fs::read_to_string(d.join("metrics.csv"))
             .map_or(0, |t| t.lines().count().saturating_sub(1))
@@ -456,16 +422,11 @@ fn a_killed_and_restarted_run_ends_identical_to_an_uninterrupted_one() {
         let _ = child.kill();
         let _ = child.wait();
     }
-    let out = mps()
-        .args(args)
-        .arg("--restart")
-        .arg(killed.join("checkpoint.bin"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        mps()
+            .args(args)
+            .arg("--restart")
+            .arg(killed.join("checkpoint.bin")),
     );
     let names = |d: &std::path::Path| {
         let mut v: Vec<String> = std::fs::read_dir(d)

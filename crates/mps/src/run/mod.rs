@@ -14,7 +14,7 @@ use crate::analysis::validation::{
 };
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
-use crate::input::case::ValidationSpec;
+use crate::input::case::{Case, ValidationSpec};
 use crate::io::series::Series;
 use crate::io::write_atomic;
 use crate::particles::Kind;
@@ -310,19 +310,9 @@ fn validate<const D: usize>(
             probe,
             window,
         }) => {
-            let k = case
-                .probes
-                .iter()
-                .position(|p| &p.name == probe)
-                .expect("validated");
+            let series = &rec.probe_series[probe_index(case, probe)];
             let exact = reference.unwrap_or(rho_w * g * depth);
-            hydrostatic(
-                probe,
-                &rec.probe_series[k],
-                *window,
-                exact,
-                reference.is_some(),
-            )
+            hydrostatic(probe, series, *window, exact, reference.is_some())
         }
         Some(ValidationSpec::Groups { early_time, .. }) => {
             let densities: Vec<f64> = (0..rec.group_names.len())
@@ -337,16 +327,8 @@ fn validate<const D: usize>(
             probe,
             from,
         }) => {
-            let k = case
-                .probes
-                .iter()
-                .position(|p| &p.name == probe)
-                .expect("validated");
-            let series: Vec<(f64, f64)> = rec.probe_series[k]
-                .iter()
-                .copied()
-                .filter(|s| s.0 >= *from)
-                .collect();
+            let series = &rec.probe_series[probe_index(case, probe)];
+            let series: Vec<(f64, f64)> = series.iter().copied().filter(|s| s.0 >= *from).collect();
             let disc = DiscSpec {
                 center: Vector::from_slice(center).expect("validated"),
                 radius: *radius,
@@ -470,4 +452,12 @@ fn group_summaries<const D: usize>(sim: &Simulation<D>, rec: &Recorder<D>) -> Ve
             }
         })
         .collect()
+}
+
+/// The index of the probe named `name` (the case was validated to have it).
+fn probe_index(case: &Case, name: &str) -> usize {
+    case.probes
+        .iter()
+        .position(|p| p.name == name)
+        .expect("validated")
 }
