@@ -6,9 +6,14 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn repro_dir() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/reliability/repro");
-    d.is_dir().then_some(d)
+/// The reproducer folders: the project's own copy (`tests/reproducers`, always there) and
+/// `../shared/reliability/repro` where the checkout has it (new reproducers land there first).
+fn repro_dirs() -> Vec<PathBuf> {
+    let own = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/reproducers");
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/reliability/repro");
+    std::iter::once(own)
+        .chain(shared.is_dir().then_some(shared))
+        .collect()
 }
 
 /// Copies `src` into `dst` (files and folders), writable.
@@ -61,17 +66,22 @@ fn run(dir: &Path, args: &[&str], limit: Duration) -> (Option<i32>, String) {
 
 #[test]
 fn every_reproducer_ends_cleanly_within_ten_seconds() {
-    let Some(src) = repro_dir() else {
-        assert!(
-            std::env::var("CI").is_err(),
-            "CI must have ../shared/reliability/repro"
-        );
-        eprintln!("../shared/reliability/repro not found: skipped");
-        return;
-    };
-    let dir = std::env::temp_dir().join(format!("mps_repro_{}", std::process::id()));
+    let mut bad = Vec::new();
+    for (k, src) in repro_dirs().iter().enumerate() {
+        bad.extend(run_folder(src, k));
+    }
+    assert!(
+        bad.is_empty(),
+        "reproducers that did not end cleanly:\n{}",
+        bad.join("\n")
+    );
+}
+
+/// Runs every reproducer of `src` (copied to a temporary folder): the failures.
+fn run_folder(src: &Path, k: usize) -> Vec<String> {
+    let dir = std::env::temp_dir().join(format!("mps_repro_{}_{k}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    copy_tree(&src, &dir);
+    copy_tree(src, &dir);
     let mut commands: Vec<Vec<String>> = Vec::new();
     let mut cases: Vec<PathBuf> = Vec::new();
     for sub in [dir.clone(), dir.join("oom-all")] {
@@ -132,9 +142,5 @@ fn every_reproducer_ends_cleanly_within_ten_seconds() {
         let _ = std::fs::remove_dir_all(dir.join("out"));
     }
     std::fs::remove_dir_all(&dir).unwrap();
-    assert!(
-        bad.is_empty(),
-        "reproducers that did not end cleanly:\n{}",
-        bad.join("\n")
-    );
+    bad
 }

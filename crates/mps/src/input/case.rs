@@ -537,11 +537,14 @@ impl Case {
             CaseError::new(label, field, value, message)
         };
         let mut table: toml::Table = toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| format!("line {}: ", text[..s.start].lines().count().max(1)))
-                .unwrap_or_default();
-            err("", "", format!("{line}{}", e.message().trim()))
+            let message = e.message().trim();
+            match e.span() {
+                Some(s) => {
+                    let (line, field, value) = syntax_location(text, s.start);
+                    err(&field, &value, format!("line {line}: {message}"))
+                }
+                None => err("", "", message.to_string()),
+            }
         })?;
         for (k, v) in overrides {
             apply_override(&mut table, k, v).map_err(|m| err(k, v, m))?;
@@ -612,6 +615,35 @@ fn dotted_path(path: &str) -> String {
         return String::new();
     }
     path.replace('[', ".").replace(']', "")
+}
+
+/// Where a TOML syntax error at byte `at` of `text` lies: its line (from 1), the dotted
+/// field of that line (enclosing table and key, when the line has one) and the line's value.
+fn syntax_location(text: &str, at: usize) -> (usize, String, String) {
+    let at = (0..=at.min(text.len()))
+        .rev()
+        .find(|&k| text.is_char_boundary(k))
+        .unwrap_or(0);
+    let before = &text[..at];
+    let line_no = before.matches('\n').count() + 1;
+    let line = text.lines().nth(line_no - 1).unwrap_or("").trim();
+    let table = before
+        .lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| l.starts_with('['))
+        .map(|l| l.trim_matches(|c| c == '[' || c == ']').trim().to_string())
+        .unwrap_or_default();
+    let (key, value) = match line.split_once('=') {
+        Some((k, v)) if !line.starts_with('[') => (k.trim().to_string(), v.trim().to_string()),
+        _ => (String::new(), String::new()),
+    };
+    let field = match (table.is_empty(), key.is_empty()) {
+        (_, true) => table,
+        (true, false) => key,
+        (false, false) => format!("{table}.{key}"),
+    };
+    (line_no, field, value)
 }
 
 #[cfg(test)]
@@ -725,5 +757,32 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
             .unwrap_err();
         assert_eq!(e.field, "fluid.0.phase");
         assert_eq!(e.value, "\"oil\"");
+    }
+
+    #[test]
+    fn a_syntax_error_names_the_line_and_the_field() {
+        let text = "name = \"t\"\n[time]\nend = 1.0\nend = 2.0\n";
+        let e = Case::from_str_named(text, "c.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "time.end");
+        assert_eq!(e.value, "2.0");
+        assert!(e.message.starts_with("line 4: "), "{e}");
+        let e = Case::from_str_named("name = \"t\"\n[time\n", "c.toml", &[]).unwrap_err();
+        assert!(e.message.starts_with("line 2: "), "{e}");
+    }
+
+    #[test]
+    fn a_validation_without_its_probe_or_with_a_bad_centre_is_refused() {
+        let disc = |center: &str, probe: &str| {
+            format!(
+                "{MINIMAL}\n[[probes]]\nname = \"c\"\nposition = [0.2, 0.2]\n[validation]\n\
+                 kind = \"rotating_disc\"\ncenter = {center}\nradius = 0.2\nomega = 1.0\n\
+                 probe = \"{probe}\"\n"
+            )
+        };
+        assert!(Case::from_str_named(&disc("[0.2, 0.2]", "c"), "t.toml", &[]).is_ok());
+        let e = Case::from_str_named(&disc("[0.2, 0.2]", "x"), "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "validation.probe");
+        let e = Case::from_str_named(&disc("[0.2]", "c"), "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "validation.center");
     }
 }

@@ -134,7 +134,72 @@ impl Case {
         for (k, w) in self.walls.iter().enumerate() {
             c.shape(&format!("walls.{k}.shape"), &w.shape, true)?;
         }
+        self.check_validation(&c)?;
         self.check_probes_and_breakdown(&c)
+    }
+
+    /// The figures of the `[validation]` table: finite, positive where they are sizes.
+    fn check_validation(&self, c: &Checker) -> Result<(), CaseError> {
+        let finite = |field: &str, v: f64| c.require(v.is_finite(), field, v, "must be finite");
+        match &self.validation {
+            None => Ok(()),
+            Some(ValidationSpec::DamBreak {
+                column_width,
+                wall_x,
+            }) => {
+                c.positive("validation.column_width", *column_width)?;
+                finite("validation.wall_x", *wall_x)
+            }
+            Some(ValidationSpec::Hydrostatic {
+                depth,
+                reference,
+                window,
+                ..
+            }) => {
+                c.positive("validation.depth", *depth)?;
+                if let Some(r) = reference {
+                    finite("validation.reference", *r)?;
+                }
+                c.positive("validation.window", *window)
+            }
+            Some(ValidationSpec::Groups {
+                bottom,
+                surface,
+                distance,
+                early_time,
+            }) => {
+                finite("validation.bottom", *bottom)?;
+                finite("validation.surface", *surface)?;
+                c.positive("validation.distance", *distance)?;
+                c.positive("validation.early_time", *early_time)
+            }
+            Some(ValidationSpec::RotatingDisc {
+                center,
+                radius,
+                omega,
+                from,
+                ..
+            }) => {
+                c.vector("validation.center", center)?;
+                c.positive("validation.radius", *radius)?;
+                finite("validation.omega", *omega)?;
+                c.require(
+                    from.is_finite() && *from >= 0.0,
+                    "validation.from",
+                    *from,
+                    "must be a time >= 0",
+                )
+            }
+            Some(ValidationSpec::EllipticDrop {
+                center,
+                radius,
+                strain_rate,
+            }) => {
+                c.vector("validation.center", center)?;
+                c.positive("validation.radius", *radius)?;
+                finite("validation.strain_rate", *strain_rate)
+            }
+        }
     }
 
     fn check_domain_and_particles(&self, c: &Checker) -> Result<(), CaseError> {
@@ -305,7 +370,12 @@ impl Case {
         for (k, p) in self.probes.iter().enumerate() {
             c.vector(&format!("probes.{k}.position"), &p.position)?;
         }
-        if let Some(ValidationSpec::Hydrostatic { probe, .. }) = &self.validation {
+        let probe = match &self.validation {
+            Some(ValidationSpec::Hydrostatic { probe, .. })
+            | Some(ValidationSpec::RotatingDisc { probe, .. }) => Some(probe),
+            _ => None,
+        };
+        if let Some(probe) = probe {
             if !self.probes.iter().any(|p| &p.name == probe) {
                 return c.fail(
                     "validation.probe",
