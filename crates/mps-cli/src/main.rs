@@ -31,6 +31,7 @@ use std::time::Instant;
 mod bench;
 mod compare;
 mod failure;
+mod heartbeat;
 mod plot;
 mod render;
 mod report;
@@ -147,17 +148,20 @@ pub fn load_case(a: &CaseArgs) -> Result<(Case, String), mps::CaseError> {
     }
 }
 
-/// Progress as a bar on a terminal, as log lines otherwise.
+/// Progress as a bar on a terminal, as log lines otherwise (through the heartbeat, so a long
+/// step or set-up is never silent).
 struct Reporter {
     bar: Option<ProgressBar>,
+    beat: Option<heartbeat::Heartbeat>,
     quiet: bool,
-    last_log: Instant,
+    last_status: Instant,
     render_every: Option<usize>,
 }
 
 impl Reporter {
-    fn new(quiet: bool, end: f64) -> Self {
-        let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+    /// A reporter to `end` (s); `beat` is the run's heartbeat (none when quiet).
+    fn new(beat: Option<heartbeat::Heartbeat>, end: f64) -> Self {
+        let bar = (beat.is_some() && std::io::stderr().is_terminal()).then(|| {
             let b = ProgressBar::new(1000);
             b.set_style(
                 ProgressStyle::with_template(
@@ -166,12 +170,15 @@ impl Reporter {
                 .expect("valid template"),
             );
             b.set_message(format!("0 / {end} s"));
+            b.enable_steady_tick(std::time::Duration::from_millis(500));
             b
         });
         Reporter {
+            // The bar shows that the run works; the heartbeat would write across it.
+            quiet: beat.is_none(),
+            beat: if bar.is_some() { None } else { beat },
             bar,
-            quiet,
-            last_log: Instant::now(),
+            last_status: Instant::now(),
             render_every: None,
         }
     }
@@ -186,19 +193,16 @@ impl Observer for Reporter {
                 "{:.4} / {} s, step {}, {:.0} steps/s, PPE {} it",
                 p.time, p.end, p.step, rate, p.report.solve.iterations
             ));
-        } else if !self.quiet && self.last_log.elapsed().as_secs_f64() > 5.0 {
-            self.last_log = Instant::now();
+        } else if let Some(beat) = &self.beat {
+            if self.last_status.elapsed().as_secs_f64() < 0.2 {
+                return;
+            }
+            self.last_status = Instant::now();
             let eta = (p.end - p.time) / (p.time / p.elapsed.max(1e-9)).max(1e-12);
-            say_err!(
+            beat.set(format!(
                 "t = {:.4} / {} s  step {}  {:.0} steps/s  dt {:.2e} s  PPE {} it  ETA {:.0} s",
-                p.time,
-                p.end,
-                p.step,
-                rate,
-                p.report.dt,
-                p.report.solve.iterations,
-                eta
-            );
+                p.time, p.end, p.step, rate, p.report.dt, p.report.solve.iterations, eta
+            ));
         }
     }
     fn on_snapshot(&mut self, index: usize, path: &Path) {
@@ -326,6 +330,7 @@ fn cmd_run(a: RunArgs) -> CmdResult {
         .unwrap_or_else(|| Path::new("runs").join(&case.name));
     let end = case.time.end;
     let vtu = case.output.vtu;
+    let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
     let mut sim = Simulation::<2>::new(case, &label)?;
     let mut resumed = None;
     if let Some(ck) = &a.restart {
@@ -356,7 +361,10 @@ fn cmd_run(a: RunArgs) -> CmdResult {
         mps::run::recorder::prepare_folder(&out, a.force)?;
     }
     save_case(&a.case, &out)?;
-    let mut rep = Reporter::new(a.quiet, end);
+    if let Some(b) = &beat {
+        b.set(format!("{label}: first step"));
+    }
+    let mut rep = Reporter::new(beat, end);
     rep.render_every = a.render_every;
     let summary = run_from(&mut sim, &out, resumed.as_deref(), &mut rep)?;
     if let Some(b) = &rep.bar {

@@ -467,3 +467,70 @@ fn a_killed_and_restarted_run_ends_identical_to_an_uninterrupted_one() {
     }
     std::fs::remove_dir_all(&base).unwrap();
 }
+
+/// Mounts a tmpfs of `size` at `dir` (`ro` for read-only); false where the machine does not
+/// allow it (no privilege): the test then says so and skips.
+fn mount_tmpfs(dir: &std::path::Path, size: &str, ro: bool) -> bool {
+    std::fs::create_dir_all(dir).unwrap();
+    let opts = format!("size={size}{}", if ro { ",ro" } else { "" });
+    Command::new("mount")
+        .args(["-t", "tmpfs", "-o", &opts, "tmpfs"])
+        .arg(dir)
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+#[test]
+fn a_full_disk_or_a_read_only_folder_exits_3_naming_the_path_and_leaves_no_temporary_file() {
+    let base = std::env::temp_dir().join(format!("mps_cli_full_{}", std::process::id()));
+    let (full, ro) = (base.join("full"), base.join("ro"));
+    if !mount_tmpfs(&full, "1m", false) {
+        eprintln!("cannot mount a tmpfs here: skipped");
+        return;
+    }
+    let mounted_ro = mount_tmpfs(&ro, "1m", true);
+    let args = ["run", "--example", "dam_break", "-q", "--threads", "1"];
+    let out = mps()
+        .args(args)
+        .arg("--out")
+        .arg(full.join("run"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    let listing: Vec<String> = std::fs::read_dir(full.join("run"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    let ro_result = mounted_ro.then(|| {
+        mps()
+            .args(args)
+            .arg("--out")
+            .arg(ro.join("run"))
+            .output()
+            .unwrap()
+    });
+    for d in [&full, &ro] {
+        let _ = Command::new("umount").arg(d).output();
+    }
+    let _ = std::fs::remove_dir_all(&base);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains(&full.join("run").to_string_lossy().to_string()),
+        "{err}"
+    );
+    assert!(err.contains("No space left"), "{err}");
+    assert!(!listing.iter().any(|n| n.contains(".tmp")), "{listing:?}");
+    // The last complete checkpoint is there to restart from.
+    assert!(listing.iter().any(|n| n == "checkpoint.bin"), "{listing:?}");
+    if let Some(out) = ro_result {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(3), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains(&ro.join("run").to_string_lossy().to_string()),
+            "{err}"
+        );
+    }
+}

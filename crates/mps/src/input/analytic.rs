@@ -17,14 +17,17 @@ pub fn square_patch_pressure(
     terms: usize,
 ) -> f64 {
     let l = side;
+    let sy: Vec<f64> = (0..terms)
+        .map(|b| ((2 * b + 1) as f64 * PI * yp / l).sin())
+        .collect();
     let mut p = 0.0;
     for a in 0..terms {
         let m = (2 * a + 1) as f64;
         let sx = (m * PI * xp / l).sin();
-        for b in 0..terms {
+        for (b, sy) in sy.iter().enumerate() {
             let n = (2 * b + 1) as f64;
             let k2 = (m * PI / l).powi(2) + (n * PI / l).powi(2);
-            p -= 32.0 * rho * omega * omega / (m * n * PI * PI * k2) * sx * (n * PI * yp / l).sin();
+            p -= 32.0 * rho * omega * omega / (m * n * PI * PI * k2) * sx * sy;
         }
     }
     p

@@ -167,12 +167,12 @@ fn fluid_sites<const D: usize>(
             return Err(CaseError::new(label, field, "", msg));
         }
         for s in sites {
-            let at = format!("{:?}", site_position(&s, l0).0);
+            let at = || format!("{:?}", site_position(&s, l0).0);
             if solid.contains(&s) {
                 return Err(CaseError::new(
                     label,
                     field,
-                    at,
+                    at(),
                     "fluid region overlaps a wall",
                 ));
             }
@@ -180,7 +180,7 @@ fn fluid_sites<const D: usize>(
                 if !f.overrides {
                     let msg =
                         format!("overlaps fluid.{prev}; set `overrides = true` to replace it");
-                    return Err(CaseError::new(label, field, at, msg));
+                    return Err(CaseError::new(label, field, at(), msg));
                 }
             }
             fluid.insert(s, r);

@@ -116,7 +116,11 @@ pub fn read_records(path: &Path) -> Result<Option<Records>> {
     if !path.exists() {
         return Ok(None);
     }
-    let mut r = csv::Reader::from_path(path).map_err(|e| csv_error(path, e))?;
+    // Flexible: a row cut short (a full disk) is read, and left to the caller to drop.
+    let mut r = csv::ReaderBuilder::new()
+        .flexible(true)
+        .from_path(path)
+        .map_err(|e| csv_error(path, e))?;
     let header = r
         .headers()
         .map_err(|e| csv_error(path, e))?

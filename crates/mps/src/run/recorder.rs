@@ -159,7 +159,11 @@ impl Earlier {
             let Some(k) = records.header.iter().position(|h| h == key) else {
                 continue;
             };
+            let width = records.header.len();
             records.rows.retain(|r| {
+                if r.len() != width {
+                    return false;
+                }
                 let v: f64 = r.get(k).and_then(|x| x.parse().ok()).unwrap_or(f64::NAN);
                 if by_step {
                     v <= step as f64
