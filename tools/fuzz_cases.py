@@ -7,7 +7,7 @@ Seeds are the shipped examples made small (spacing x2, at most 20 steps, no VTU)
 gets 1-3 mutations: a number replaced by an extreme (0, -1, 1e308, 1e-300, nan, inf, huge
 integers, a power-of-ten scale), a string, boolean or array changed, a line deleted or
 duplicated, a key renamed, the text truncated or random bytes inserted. Each run gets 10 s;
-a run still going then is killed and counts as a hang unless it wrote a progress line.
+a run still going then is killed and counts as a hang unless it wrote a line (start, progress or heartbeat).
 
 Counted: exit codes (0 done, 1 bad input, 2 breakdown, 3 I/O), panics (101), signals,
 hangs, and exit-1 messages that are not one line naming the case file. Failing cases are
@@ -131,7 +131,8 @@ def run_one(binary, work, k, name, text, timeout):
     elapsed = time.time() - start
     shutil.rmtree(out, ignore_errors=True)
     err = se.decode("utf-8", "replace")
-    progress = "t = " in err
+    # The start line, progress lines and the heartbeat (at least every 5 s) all count.
+    progress = bool(so.strip() or err.strip())
     verdict = None
     if hung:
         verdict = None if progress else "hang"

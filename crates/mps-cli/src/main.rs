@@ -390,9 +390,15 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(e) => {
             // Help and version go to stdout with exit 0; a bad argument is bad input (1).
-            let code = if e.use_stderr() { 1 } else { 0 };
-            let _ = e.print();
-            return ExitCode::from(code);
+            if !e.use_stderr() {
+                let _ = e.print();
+                return ExitCode::SUCCESS;
+            }
+            // One line, as every bad input gets (clap adds a usage hint below it).
+            let text = e.render().to_string();
+            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+            say_err!("{} (mps --help)", first.trim_end());
+            return ExitCode::from(1);
         }
     };
     let r = match cli.command {

@@ -77,6 +77,21 @@ fn missing_file_is_a_clear_error() {
         err.contains("no/such/case.toml") && err.contains("cannot read"),
         "{err}"
     );
+    // A bad argument: one line naming it, exit 1, before any work.
+    for args in [
+        &["run", "--example", "dam_break", "--threads", "0"][..],
+        &["run", "--bogus"][..],
+        &["bench", "--ladder", "0"][..],
+    ] {
+        let out = mps().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            err.contains(args[args.len() - 2]) || err.contains(args[1]),
+            "{err}"
+        );
+    }
 }
 
 #[test]
