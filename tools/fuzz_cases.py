@@ -172,6 +172,7 @@ def main():
     codes = collections.Counter()
     defects = collections.Counter()
     field_named = 0
+    unnamed = []
     exit1 = 0
     slowest = 0.0
     with tempfile.TemporaryDirectory() as work, cf.ThreadPoolExecutor(a.jobs) as pool:
@@ -182,9 +183,12 @@ def main():
             slowest = max(slowest, elapsed)
             if code == "1":
                 exit1 += 1
-                # A field is named as `key`, `a.b` or `table[n].key` in the message.
-                if re.search(r"`[^`]+`|\b\w+\.\w+\b|line \d+", err):
+                # `error: FILE: FIELD[ = VALUE]: message`, or a line number for syntax.
+                rest = err.split(".toml: ", 1)[-1]
+                if re.match(r"[\w.\-]+( = .*?)?: ", rest) or re.search(r"line \d+", rest):
                     field_named += 1
+                elif len(unnamed) < 20:
+                    unnamed.append(err)
             if verdict:
                 defects[verdict] += 1
                 os.makedirs(a.keep, exist_ok=True)
@@ -197,6 +201,8 @@ def main():
         print(f"  exit {code}: {n}")
     print(f"  exit-1 messages naming a field, a key path or a line: {field_named} of {exit1}")
     print(f"  slowest run: {slowest:.1f} s")
+    for e in unnamed:
+        print(f"  no field named: {e}")
     print(f"  defects: {dict(defects) if defects else 0}")
     return 1 if defects else 0
 

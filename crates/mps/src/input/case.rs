@@ -551,8 +551,20 @@ impl Case {
         }
         let case: Case =
             serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
-                let field = dotted_path(&e.path().to_string());
-                let msg = e.inner().message().trim().to_string();
+                let mut field = dotted_path(&e.path().to_string());
+                let mut msg = e.inner().message().trim().to_string();
+                // A missing field is named with its full path (`phases.0.density`).
+                if let Some(name) = msg
+                    .strip_prefix("missing field `")
+                    .and_then(|r| r.strip_suffix('`'))
+                {
+                    field = if field.is_empty() {
+                        name.to_string()
+                    } else {
+                        format!("{field}.{name}")
+                    };
+                    msg = "missing (required)".to_string();
+                }
                 // Locate the field in the source when possible.
                 let line = locate_field(text, &msg)
                     .map(|l| format!(" (line {l})"))
@@ -723,8 +735,11 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
     fn a_missing_field_is_named_with_its_full_path() {
         let text = MINIMAL.replace("density = 1000.0", "");
         let e = Case::from_str_named(&text, "t.toml", &[]).unwrap_err();
-        assert_eq!(e.field, "phases.0", "{e}");
-        assert!(e.message.contains("density"), "{e}");
+        assert_eq!(e.field, "phases.0.density", "{e}");
+        assert!(e.message.contains("missing"), "{e}");
+        let e =
+            Case::from_str_named(&MINIMAL.replace("name = \"t\"", ""), "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "name", "{e}");
         let e = Case::from_str_named(
             MINIMAL,
             "t.toml",
