@@ -31,10 +31,16 @@ pub fn pairs<'a, const D: usize>(
     re: f64,
 ) -> impl Iterator<Item = Pair<D>> + 'a {
     let xi = pos[i];
+    // Far neighbours (the list's skin, a smaller radius) are rejected before the square root;
+    // the margin leaves the exact test `r < re` to decide at the rim.
+    let far = re * re * (1.0 + 1e-9);
     nl.of(i).iter().filter_map(move |&j| {
         let j = j as usize;
         let xij = pos[j] - xi;
         let r2 = xij.norm2();
+        if r2 > far {
+            return None;
+        }
         let r = r2.sqrt();
         (r > 0.0 && r < re).then(|| Pair {
             j,
