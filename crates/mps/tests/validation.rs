@@ -289,3 +289,131 @@ fn closed_boxes_stay_at_rest_with_a_pressure_level_from_the_reference() {
         );
     }
 }
+
+/// The example's text with its `[validation]` table replaced by `validation`.
+fn with_validation(name: &str, validation: &str) -> String {
+    let text = mps::examples::example(name).expect("example exists");
+    let start = text
+        .find("[validation]")
+        .expect("the example has a validation");
+    format!("{}{validation}\n", &text[..start])
+}
+
+/// A front against a reference curve the case names: Martin & Moyce's points written as a CSV
+/// in seconds and metres (ms and mm in the file, scaled when read), the dam break run to its
+/// end. The RMS difference must be the `dam_break` kind's dimensionless RMS times L (the
+/// same points, linear interpolation commutes with the scaling), within the same 0.3 L,
+/// and the comparison file is written.
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn a_front_against_a_reference_csv_agrees_with_the_built_in_comparison() {
+    let dir = tmp("front_reference");
+    let (l, g): (f64, f64) = (0.146, 9.81);
+    let scale = (2.0 * g / l).sqrt();
+    let mut csv = String::from("# Martin & Moyce (1952), a = 2.25 in\nt_ms,front_mm\n");
+    for (tt, z) in mps::analysis::validation::martin_moyce() {
+        csv += &format!("{},{}\n", 1e3 * tt / scale, 1e3 * z * l);
+    }
+    std::fs::write(dir.join("mm.csv"), csv).unwrap();
+    let text = with_validation(
+        "dam_break",
+        "[validation]\nkind = \"front_reference\"\nwall_x = 0.0\n\
+         reference = { file = \"mm.csv\", time_scale = 0.001, value_scale = 0.001 }\n\
+         rms_tolerance = 0.0438\npeak_tolerance = 0.1",
+    );
+    let case_path = dir.join("case.toml");
+    std::fs::write(&case_path, text).unwrap();
+    let over = [("output.vtu".to_string(), "false".to_string())];
+    let case = mps::Case::from_file(&case_path, &over).unwrap();
+    let mut s = mps::Simulation::<2>::new(case, "dam_break").unwrap();
+    let out = dir.join("run");
+    let summary = run(&mut s, &out, &mut Silent).unwrap();
+    assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
+    let rms = &summary.validation[0];
+    let front = column(&out.join("front.csv"), "front");
+    let time = column(&out.join("front.csv"), "time");
+    let series: Vec<(f64, f64)> = time.into_iter().zip(front).collect();
+    let (rows, rms_z) = mps::analysis::validation::dam_break_front(&series, l, g);
+    eprintln!(
+        "front vs CSV: RMS {:.4} m over {} points; built-in RMS(Z) {rms_z:.4} x L = {:.4} m",
+        rms.value,
+        rows.len(),
+        rms_z * l
+    );
+    assert_eq!(rms.name, "front_rms_difference");
+    assert!(
+        (rms.value - rms_z * l).abs() <= 1e-9 * l,
+        "{} vs {}",
+        rms.value,
+        rms_z * l
+    );
+    assert!(rms.passed && rms.value <= 0.3 * l);
+    let written = column(&out.join("reference_comparison.csv"), "difference");
+    assert_eq!(written.len(), rows.len());
+    assert!(rows.len() >= 12);
+}
+
+/// A probe against a reference curve: still water (the example, to 1.5 s), the bottom
+/// probe's 50 ms moving average against rho g H from 0.5 s to 1.5 s passes 5 % RMS and 10 %
+/// peak tolerances; the same run against a curve 20 % high fails both.
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn a_probe_against_a_reference_csv_passes_the_right_curve_and_fails_a_wrong_one() {
+    let dir = tmp("probe_reference");
+    let exact = 1000.0 * 9.81 * 0.3;
+    let mut failed = Vec::new();
+    for (name, factor) in [("right", 1.0), ("high", 1.2)] {
+        let rows: String = (0..=10)
+            .map(|k| format!("{},{}\n", 0.5 + 0.1 * k as f64, factor * exact))
+            .collect();
+        std::fs::write(dir.join(format!("{name}.csv")), format!("time,p\n{rows}")).unwrap();
+        let text = with_validation(
+            "hydrostatic",
+            &format!(
+                "[validation]\nkind = \"probe_reference\"\nprobe = \"bottom\"\n\
+                 reference = {{ file = \"{name}.csv\", columns = [\"time\", \"p\"] }}\n\
+                 rms_tolerance = {}\npeak_tolerance = {}\nsmoothing = 0.05",
+                0.05 * exact,
+                0.1 * exact
+            ),
+        );
+        let case_path = dir.join(format!("{name}.toml"));
+        std::fs::write(&case_path, text).unwrap();
+        let over: Vec<(String, String)> = [("output.vtu", "false"), ("time.end", "1.5")]
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        let case = mps::Case::from_file(&case_path, &over).unwrap();
+        let mut s = mps::Simulation::<2>::new(case, name).unwrap();
+        let summary = run(&mut s, &dir.join(name), &mut Silent).unwrap();
+        let (rms, peak) = (&summary.validation[0], &summary.validation[1]);
+        eprintln!(
+            "{name}: RMS {:.1} Pa, peak {:.1} Pa (rho g H {exact:.1} Pa)",
+            rms.value, peak.value
+        );
+        assert!(rms.value.is_finite() && peak.value >= rms.value);
+        failed.push((rms.passed, peak.passed));
+    }
+    assert_eq!(failed, vec![(true, true), (false, false)]);
+}
+
+/// A reference file that does not parse is bad input, named with its row, before any run.
+#[test]
+fn a_bad_reference_csv_is_refused_when_the_case_loads() {
+    let dir = tmp("bad_reference");
+    std::fs::write(dir.join("r.csv"), "t,p\n0,1\n0.1,oops\n").unwrap();
+    let text = with_validation(
+        "hydrostatic",
+        "[validation]\nkind = \"probe_reference\"\nprobe = \"bottom\"\n\
+         reference = { file = \"r.csv\" }\nrms_tolerance = 1.0\npeak_tolerance = 1.0",
+    );
+    std::fs::write(dir.join("c.toml"), text).unwrap();
+    let e = mps::Case::from_file(&dir.join("c.toml"), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("c.toml") && e.contains("validation.reference.file") && e.contains("row 3"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'));
+}

@@ -102,6 +102,66 @@ pub fn dam_break_front(
     (rows, rms)
 }
 
+/// A simulated series against a reference curve: the rows `(t, reference, simulated)` at
+/// every reference time the run covers (simulation interpolated linearly), and the RMS and
+/// largest absolute difference (NaN when the run covers none of them).
+pub fn against_curve(
+    simulated: &[(f64, f64)],
+    reference: &[(f64, f64)],
+) -> (Vec<(f64, f64, f64)>, f64, f64) {
+    let rows: Vec<(f64, f64, f64)> = reference
+        .iter()
+        .filter_map(|&(t, r)| interpolate(simulated, t).map(|s| (t, r, s)))
+        .collect();
+    if rows.is_empty() {
+        return (rows, f64::NAN, f64::NAN);
+    }
+    let sq = rows.iter().map(|r| (r.2 - r.1).powi(2)).sum::<f64>();
+    let rms = (sq / rows.len() as f64).sqrt();
+    let peak = rows.iter().map(|r| (r.2 - r.1).abs()).fold(0.0, f64::max);
+    (rows, rms, peak)
+}
+
+/// The two figures of a comparison against a reference curve, `what` naming the series
+/// (`probe p1`, `front`): RMS and largest difference, each against its tolerance.
+pub fn curve_results(
+    what: &str,
+    rows: &[(f64, f64, f64)],
+    rms: f64,
+    peak: f64,
+    tolerances: (f64, f64),
+    file: &str,
+) -> Vec<ValidationResult> {
+    let span = match (rows.first(), rows.last()) {
+        (Some(a), Some(b)) => format!(
+            "{} reference points from {} s to {} s",
+            rows.len(),
+            a.0,
+            b.0
+        ),
+        _ => "no reference point inside the run's time span".to_string(),
+    };
+    let key = what.replace(' ', "_");
+    vec![
+        ValidationResult::new(
+            &format!("{key}_rms_difference"),
+            rms,
+            0.0,
+            rms,
+            tolerances.0,
+            format!("RMS of {what} minus `{file}` over {span}"),
+        ),
+        ValidationResult::new(
+            &format!("{key}_peak_difference"),
+            peak,
+            0.0,
+            peak,
+            tolerances.1,
+            format!("largest |{what} minus `{file}`| over {span}"),
+        ),
+    ]
+}
+
 /// Mean of a time series over `[t_end - window, t_end]`.
 pub fn window_mean(series: &[(f64, f64)], window: f64) -> Option<f64> {
     let t_end = series.last()?.0;
@@ -303,6 +363,34 @@ mod tests {
         let d = martin_moyce();
         assert_eq!(d.len(), 14);
         assert_eq!(d[0], (0.41, 1.11));
+    }
+
+    #[test]
+    fn a_curve_comparison_measures_rms_and_peak() {
+        // Simulation sin(t) sampled finely; reference sin(t) + 0.1 at its own times, one
+        // point outside the run.
+        let sim: Vec<(f64, f64)> = (0..=1000)
+            .map(|k| {
+                let t = k as f64 * 1e-3;
+                (t, t.sin())
+            })
+            .collect();
+        let mut reference: Vec<(f64, f64)> = (0..10)
+            .map(|k| (k as f64 * 0.1, (k as f64 * 0.1).sin() + 0.1))
+            .collect();
+        reference.push((2.0, 0.0));
+        let (rows, rms, peak) = against_curve(&sim, &reference);
+        assert_eq!(rows.len(), 10);
+        assert!(
+            (rms - 0.1).abs() < 1e-6 && (peak - 0.1).abs() < 1e-6,
+            "{rms} {peak}"
+        );
+        let r = curve_results("probe p", &rows, rms, peak, (0.05, 0.2), "r.csv");
+        assert!(!r[0].passed && r[1].passed);
+        assert_eq!(r[0].name, "probe_p_rms_difference");
+        let (rows, rms, _) = against_curve(&sim, &[(5.0, 1.0), (6.0, 1.0)]);
+        assert!(rows.is_empty() && rms.is_nan());
+        assert!(!curve_results("front", &rows, rms, rms, (1.0, 1.0), "f.csv")[0].passed);
     }
 
     #[test]

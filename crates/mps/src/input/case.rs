@@ -6,6 +6,7 @@
 use super::overrides::apply_override;
 use super::scheme_spec::SchemeSpec;
 use crate::error::CaseError;
+use crate::input::reference::ReferenceFile;
 use crate::linalg::SolverKind;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -504,6 +505,42 @@ pub enum ValidationSpec {
         /// Initial strain rate `A0` (1/s).
         strain_rate: f64,
     },
+    /// A probe against a reference curve the case names (a wall-pressure gauge of an
+    /// experiment, another code's result): the probe's moving average against the curve at
+    /// every reference time the run covers; RMS and largest difference within tolerances
+    /// (the probe's unit, Pa).
+    ProbeReference {
+        /// Probe compared.
+        probe: String,
+        /// The reference curve (time, value).
+        reference: ReferenceFile,
+        /// Largest accepted RMS difference (Pa).
+        rms_tolerance: f64,
+        /// Largest accepted single difference (Pa).
+        peak_tolerance: f64,
+        /// Moving-average window applied to the probe before comparing (s); 0 compares the
+        /// raw samples.
+        #[serde(default = "default_smoothing")]
+        smoothing: f64,
+    },
+    /// The front (the largest x of the fluid, measured from `wall_x`) against a reference
+    /// curve the case names: RMS and largest difference within tolerances (m).
+    FrontReference {
+        /// The reference curve (time, front distance from the wall).
+        reference: ReferenceFile,
+        /// x of the wall the front is measured from (m).
+        #[serde(default)]
+        wall_x: f64,
+        /// Largest accepted RMS difference (m).
+        rms_tolerance: f64,
+        /// Largest accepted single difference (m).
+        peak_tolerance: f64,
+    },
+}
+
+/// The probes' 1 ms moving average, as `probes_smoothed.csv` (decisions.md "Probe noise").
+fn default_smoothing() -> f64 {
+    1e-3
 }
 
 fn default_window() -> f64 {
@@ -524,15 +561,39 @@ impl Case {
         let label = path.display().to_string();
         let text = std::fs::read_to_string(path)
             .map_err(|e| CaseError::new(&label, "", "", format!("cannot read case file: {e}")))?;
-        Case::from_str_named(&text, &label, overrides)
+        let mut case = Case::parse(&text, &label, overrides)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        case.load_references(base, &label)?;
+        Ok(case)
     }
 
-    /// Parses and validates case text; `label` names its source in errors.
+    /// Parses and validates case text; `label` names its source in errors, and files the
+    /// case names are read relative to the working folder.
     pub fn from_str_named(
         text: &str,
         label: &str,
         overrides: &[(String, String)],
     ) -> Result<Case, CaseError> {
+        let mut case = Case::parse(text, label, overrides)?;
+        case.load_references(Path::new("."), label)?;
+        Ok(case)
+    }
+
+    /// Reads the reference curves the validation names, relative to `base`.
+    fn load_references(&mut self, base: &Path, label: &str) -> Result<(), CaseError> {
+        let reference = match &mut self.validation {
+            Some(ValidationSpec::ProbeReference { reference, .. })
+            | Some(ValidationSpec::FrontReference { reference, .. }) => reference,
+            _ => return Ok(()),
+        };
+        reference.load(base).map_err(|m| {
+            let value = format!("{:?}", reference.file);
+            CaseError::new(label, "validation.reference.file", &value, m)
+        })
+    }
+
+    /// Parses and validates case text without reading the files it names.
+    fn parse(text: &str, label: &str, overrides: &[(String, String)]) -> Result<Case, CaseError> {
         let err = |field: &str, value: &str, message: String| {
             CaseError::new(label, field, value, message)
         };

@@ -10,6 +10,7 @@ pub mod case;
 pub mod examples;
 pub mod expression;
 pub mod overrides;
+pub mod reference;
 pub mod scheme_spec;
 pub mod setup;
 pub mod shapes;

@@ -199,6 +199,31 @@ impl Case {
                 c.positive("validation.radius", *radius)?;
                 finite("validation.strain_rate", *strain_rate)
             }
+            Some(ValidationSpec::ProbeReference {
+                rms_tolerance,
+                peak_tolerance,
+                smoothing,
+                ..
+            }) => {
+                c.positive("validation.rms_tolerance", *rms_tolerance)?;
+                c.positive("validation.peak_tolerance", *peak_tolerance)?;
+                c.require(
+                    smoothing.is_finite() && *smoothing >= 0.0,
+                    "validation.smoothing",
+                    *smoothing,
+                    "must be a time >= 0",
+                )
+            }
+            Some(ValidationSpec::FrontReference {
+                wall_x,
+                rms_tolerance,
+                peak_tolerance,
+                ..
+            }) => {
+                finite("validation.wall_x", *wall_x)?;
+                c.positive("validation.rms_tolerance", *rms_tolerance)?;
+                c.positive("validation.peak_tolerance", *peak_tolerance)
+            }
         }
     }
 
@@ -372,7 +397,8 @@ impl Case {
         }
         let probe = match &self.validation {
             Some(ValidationSpec::Hydrostatic { probe, .. })
-            | Some(ValidationSpec::RotatingDisc { probe, .. }) => Some(probe),
+            | Some(ValidationSpec::RotatingDisc { probe, .. })
+            | Some(ValidationSpec::ProbeReference { probe, .. }) => Some(probe),
             _ => None,
         };
         if let Some(probe) = probe {

@@ -9,12 +9,13 @@ use crate::analysis::groups::group_states;
 use crate::analysis::metrics::Metrics;
 use crate::analysis::probes::{noise, smooth, SMOOTHING_WINDOW};
 use crate::analysis::validation::{
-    dam_break, early_acceleration, elliptic_drop, hydrostatic, rotating_disc, DiscSpec,
-    ValidationResult,
+    against_curve, curve_results, dam_break, early_acceleration, elliptic_drop, hydrostatic,
+    rotating_disc, DiscSpec, ValidationResult,
 };
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
 use crate::input::case::{Case, ValidationSpec};
+use crate::input::reference::ReferenceFile;
 use crate::io::series::Series;
 use crate::io::write_atomic;
 use crate::particles::Kind;
@@ -226,7 +227,8 @@ pub fn run_from<const D: usize>(
 ) -> Result<RunSummary> {
     std::fs::create_dir_all(out).at(out)?;
     let front_wall = match &sim.case.validation {
-        Some(ValidationSpec::DamBreak { wall_x, .. }) => Some(*wall_x),
+        Some(ValidationSpec::DamBreak { wall_x, .. })
+        | Some(ValidationSpec::FrontReference { wall_x, .. }) => Some(*wall_x),
         _ => None,
     };
     let mut rec = match resumed {
@@ -342,9 +344,61 @@ fn validate<const D: usize>(
             strain_rate,
             ..
         }) => elliptic_drop(&rec.axes_series, *radius, *strain_rate),
+        Some(ValidationSpec::ProbeReference {
+            probe,
+            reference,
+            rms_tolerance,
+            peak_tolerance,
+            smoothing,
+        }) => {
+            let series = &rec.probe_series[probe_index(case, probe)];
+            let series = if *smoothing > 0.0 {
+                smooth(series, *smoothing)
+            } else {
+                series.clone()
+            };
+            let what = format!("probe {probe}");
+            let tolerances = (*rms_tolerance, *peak_tolerance);
+            return compare_with_curve(&what, &series, reference, tolerances, out);
+        }
+        Some(ValidationSpec::FrontReference {
+            reference,
+            rms_tolerance,
+            peak_tolerance,
+            ..
+        }) => {
+            let tolerances = (*rms_tolerance, *peak_tolerance);
+            return compare_with_curve("front", &rec.front_series, reference, tolerances, out);
+        }
         None => None,
     };
     Ok(result.into_iter().collect())
+}
+
+/// A series against the case's reference curve: `reference_comparison.csv` (time, reference,
+/// simulation, difference) and the RMS and peak figures.
+fn compare_with_curve(
+    what: &str,
+    series: &[(f64, f64)],
+    reference: &ReferenceFile,
+    tolerances: (f64, f64),
+    out: &Path,
+) -> Result<Vec<ValidationResult>> {
+    let (rows, rms, peak) = against_curve(series, &reference.curve);
+    let header = ["time", "reference", "simulation", "difference"].map(String::from);
+    let mut csv = Series::create(&out.join("reference_comparison.csv"), Some(&header))?;
+    for &(t, r, s) in &rows {
+        csv.push(&[t, r, s, s - r])?;
+    }
+    csv.flush()?;
+    Ok(curve_results(
+        what,
+        &rows,
+        rms,
+        peak,
+        tolerances,
+        &reference.file,
+    ))
 }
 
 /// The run summary.

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 /// True for the name of a file or folder a run writes into its folder (and the figures and
 /// report made from it): what `--force` may clear before a new run there.
 pub fn is_run_file(name: &str) -> bool {
-    const FILES: [&str; 14] = [
+    const FILES: [&str; 15] = [
         "particles.pvd",
         "metrics.csv",
         "steps.csv",
@@ -27,6 +27,7 @@ pub fn is_run_file(name: &str) -> bool {
         "groups.csv",
         "front.csv",
         "dam_break_front.csv",
+        "reference_comparison.csv",
         "summary.toml",
         "breakdown.toml",
         "breakdown_last_good_state.vtu",
