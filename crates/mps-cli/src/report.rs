@@ -51,6 +51,10 @@ fn run_table(s: &RunSummary) -> Block {
             format!("{:.2}", s.mean_ppe_iterations),
         ],
         ["solver fall-backs".into(), s.solver_fallbacks.to_string()],
+        [
+            "particles removed by outflow".into(),
+            s.outflow_removed.to_string(),
+        ],
         ["threads".into(), s.threads.to_string()],
         [
             "breakdown".into(),

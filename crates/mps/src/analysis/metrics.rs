@@ -55,6 +55,8 @@ pub struct Metrics {
     pub surface_skin: usize,
     /// Fluid particles with at most one fluid neighbour within re_grad.
     pub isolated: usize,
+    /// Fluid particles removed so far after leaving the domain (`domain.outflow`).
+    pub outflow_removed: u64,
 }
 
 impl Metrics {
@@ -155,6 +157,7 @@ impl Metrics {
             false_surface: sc.false_surface,
             surface_skin: sc.surface_skin,
             isolated: sc.isolated,
+            outflow_removed: sim.outflow_removed,
         }
     }
 }

@@ -36,6 +36,9 @@ pub struct RunSummary {
     /// Steps whose PPE preconditioner could not be built and fell back to Jacobi.
     #[serde(default)]
     pub solver_fallbacks: u64,
+    /// Fluid particles removed after leaving the domain (`domain.outflow = "remove"`).
+    #[serde(default)]
+    pub outflow_removed: u64,
     /// Breakdown description, if the run broke down.
     pub breakdown: Option<String>,
     /// Breakdown time (s), if any.

@@ -79,6 +79,21 @@ pub struct DomainSpec {
     /// `position` takes `value`; default the highest fluid particle at 0 Pa.
     #[serde(default)]
     pub pressure_reference: Option<PressureReferenceSpec>,
+    /// What happens to a fluid particle that leaves the domain box (by more than l0).
+    #[serde(default)]
+    pub outflow: Outflow,
+}
+
+/// What happens to a fluid particle that leaves the domain box.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Outflow {
+    /// The run stops with a breakdown record (exit 2): nothing should leave a closed tank.
+    #[default]
+    Breakdown,
+    /// The particle is removed from the run (an open boundary, a splash leaving the region
+    /// of interest); removals are counted in `metrics.csv`, `steps.csv` and the summary.
+    Remove,
 }
 
 /// Where a closed domain's pressure level is set.

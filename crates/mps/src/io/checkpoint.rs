@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The file's first bytes: format name and version.
-const MAGIC: &[u8; 8] = b"MPSCKPT3";
+const MAGIC: &[u8; 8] = b"MPSCKPT4";
 
 /// What a checkpoint holds.
 #[derive(Serialize, Deserialize)]
@@ -23,6 +23,8 @@ struct State<const D: usize> {
     time: f64,
     /// Steps taken.
     step: u64,
+    /// Fluid particles removed by outflow so far.
+    removed: u64,
     /// Every particle field.
     particles: Particles<D>,
 }
@@ -34,6 +36,7 @@ pub fn checkpoint_bytes<const D: usize>(sim: &Simulation<D>) -> Vec<u8> {
         case: sim.case.fingerprint(),
         time: sim.time,
         step: sim.step_count,
+        removed: sim.outflow_removed,
         particles: sim.particles.clone(),
     };
     let mut out = MAGIC.to_vec();
@@ -98,9 +101,10 @@ pub fn restore<const D: usize>(sim: &mut Simulation<D>, bytes: &[u8], path: &Pat
         return Err(bad(format!("time {} is not a valid time", state.time)));
     }
     let n = state.particles.len();
-    if n != sim.particles.len() {
+    if n as u64 + state.removed != sim.particles.len() as u64 {
         return Err(bad(format!(
-            "checkpoint holds {n} particles, the case builds {}",
+            "checkpoint holds {n} particles and {} removed by outflow, the case builds {}",
+            state.removed,
             sim.particles.len()
         )));
     }
@@ -109,6 +113,7 @@ pub fn restore<const D: usize>(sim: &mut Simulation<D>, bytes: &[u8], path: &Pat
     sim.particles = state.particles;
     sim.time = state.time;
     sim.step_count = state.step;
+    sim.outflow_removed = state.removed;
     // Only the neighbour list is rebuilt: every stored array comes back as saved, so the
     // restarted run continues bit for bit.
     sim.rebuild_neighbors();

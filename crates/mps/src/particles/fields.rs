@@ -174,6 +174,26 @@ macro_rules! particle_fields {
                 $( self.$name.push($init); )*
             }
 
+            /// Keeps the particles whose `keep` entry is true, in order; particle indices
+            /// held in fields are remapped (one pointing to a removed particle becomes
+            /// [`NONE`]). Returns the number removed.
+            pub fn retain(&mut self, keep: &[bool]) -> usize {
+                let mut inverse = vec![NONE; keep.len()];
+                let mut kept = 0u32;
+                for (old, &k) in keep.iter().enumerate() {
+                    if k {
+                        inverse[old] = kept;
+                        kept += 1;
+                    }
+                }
+                $(
+                    let mut flags = keep.iter();
+                    self.$name.retain(|_| *flags.next().unwrap_or(&true));
+                    $( stringify!($remap); remap_indices(&mut self.$name, &inverse); )?
+                )*
+                keep.len() - kept as usize
+            }
+
             /// Reorders every array by `order` (new index -> old index); index fields are
             /// remapped to the new numbering.
             pub fn permute(&mut self, order: &[u32]) {
@@ -354,6 +374,21 @@ mod tests {
         // The dummy (now first) is backed by the wall, now at index 2.
         assert_eq!(p.backing_wall[0], 2);
         assert_eq!(p.inconsistent_field(), None);
+    }
+
+    #[test]
+    fn retain_removes_from_every_field_and_remaps_indices() {
+        let mut p = two();
+        // Remove the fluid particle (index 0): the dummy's backing wall moves from 1 to 0.
+        assert_eq!(p.retain(&[false, true, true]), 1);
+        assert_eq!(p.id, vec![1, 2]);
+        assert_eq!(p.kind, vec![Kind::Wall, Kind::Dummy]);
+        assert_eq!(p.backing_wall, vec![NONE, 0]);
+        assert_eq!(p.inconsistent_field(), None);
+        // Removing the wall leaves the dummy without one.
+        assert_eq!(p.retain(&[false, true]), 1);
+        assert_eq!(p.backing_wall, vec![NONE]);
+        assert_eq!(p.retain(&[true]), 0);
     }
 
     #[test]

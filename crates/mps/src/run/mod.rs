@@ -425,6 +425,7 @@ fn summarise<const D: usize>(
         particle_steps_per_second: total as f64 * sim.step_count as f64 / t.wall_seconds.max(1e-9),
         mean_ppe_iterations: rec.iterations as f64 / sim.step_count.max(1) as f64,
         solver_fallbacks: sim.solver.fallbacks,
+        outflow_removed: sim.outflow_removed,
         breakdown: t.breakdown.as_ref().map(|b| b.to_string()),
         breakdown_time: t.breakdown.as_ref().map(|b| b.time),
         validation,

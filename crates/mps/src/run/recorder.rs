@@ -91,6 +91,7 @@ struct StepRow {
     close_pairs: u64,
     max_speed: f64,
     collisions: u64,
+    removed: u64,
 }
 
 /// The writers of one run folder.
@@ -530,6 +531,7 @@ impl<const D: usize> Recorder<D> {
             close_pairs: r.close_pairs,
             max_speed: r.max_speed,
             collisions: r.collisions,
+            removed: r.removed,
         })
     }
 

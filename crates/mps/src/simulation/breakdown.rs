@@ -79,7 +79,9 @@ impl fmt::Display for Breakdown {
             } => format!(
                 "pressure solver did not converge ({iterations} iterations, residual {residual:.2e})"
             ),
-            BreakdownReason::LeftDomain => "a particle left the domain".to_string(),
+            BreakdownReason::LeftDomain => {
+                "a particle left the domain (domain.outflow = \"remove\" lets it leave)".to_string()
+            }
             BreakdownReason::Penetration { distance_l0 } => {
                 format!("particles interpenetrated (pair at {distance_l0:.3} l0)")
             }
@@ -111,6 +113,9 @@ pub struct Limits<const D: usize> {
     pub l0: f64,
     /// Largest allowed fluid speed (m/s).
     pub max_speed: f64,
+    /// Fluid beyond the box is removed after the step (`domain.outflow = "remove"`), not a
+    /// failure.
+    pub outflow: bool,
 }
 
 /// At most this many particles are named in a failure.
@@ -146,7 +151,7 @@ pub fn check_state<const D: usize>(
     let outside = |i: usize| {
         p.kind[i] == Kind::Fluid && (0..D).any(|k| pos[i][k] < lim.lo[k] || pos[i][k] > lim.hi[k])
     };
-    if (0..n).into_par_iter().any(outside) {
+    if !lim.outflow && (0..n).into_par_iter().any(outside) {
         return Err(Failure {
             reason: BreakdownReason::LeftDomain,
             particles: first_matching(p, outside),

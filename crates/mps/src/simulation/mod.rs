@@ -16,6 +16,7 @@ pub use stages::{DensitySurface, Predicted};
 pub use timers::{Stage, Timers};
 
 use crate::error::CaseError;
+use crate::input::case::Outflow;
 use crate::input::Case;
 use crate::linalg::SolveStats;
 use crate::numerics::ppe::PressureSystem;
@@ -54,6 +55,8 @@ pub struct StepReport {
     pub max_speed: f64,
     /// Pairs treated by the collision model.
     pub collisions: u64,
+    /// Fluid particles removed after leaving the domain (`domain.outflow = "remove"`).
+    pub removed: u64,
 }
 
 /// A running simulation: the particles, the resolved scheme and everything the step needs.
@@ -88,6 +91,8 @@ pub struct Simulation<const D: usize> {
     pub last_system: Option<PressureSystem>,
     /// The pressure solver (its choice, kept set-up and fall-back count).
     pub solver: PressureSolver,
+    /// Fluid particles removed so far after leaving the domain (`domain.outflow`).
+    pub outflow_removed: u64,
     neighbors: NeighborList,
     skin: f64,
 }
@@ -126,6 +131,7 @@ impl<const D: usize> Simulation<D> {
             last_system: None,
             neighbors: NeighborList::default(),
             skin: SKIN * l0,
+            outflow_removed: 0,
         };
         sim.reorder();
         sim.refresh_diagnostic_fields();
@@ -205,6 +211,8 @@ impl<const D: usize> Simulation<D> {
                 dt,
             )
         })?;
+        // 7. Outflow: fluid beyond the domain leaves the run (when the case says so).
+        report.removed = self.timed(Stage::Correction, |s| s.remove_outflow());
         Ok(report)
     }
 
@@ -301,6 +309,7 @@ impl<const D: usize> Simulation<D> {
             min_pair: self.case.breakdown.min_pair_distance * l0,
             l0,
             max_speed: self.max_speed_bound,
+            outflow: self.case.domain.outflow == Outflow::Remove,
         }
     }
 

@@ -374,6 +374,33 @@ impl<const D: usize> Simulation<D> {
             })
     }
 
+    /// Stage 7: with `domain.outflow = "remove"`, fluid particles more than l0 beyond the
+    /// domain box are removed (counted in [`Simulation::outflow_removed`]); the neighbour
+    /// list and any kept solver set-up refer to the old numbering and are rebuilt. Returns
+    /// the number removed this step.
+    pub(super) fn remove_outflow(&mut self) -> u64 {
+        let lim = self.limits();
+        if !lim.outflow {
+            return 0;
+        }
+        let p = &self.particles;
+        let keep: Vec<bool> = (0..p.len())
+            .into_par_iter()
+            .map(|i| {
+                let x = p.position[i];
+                p.kind[i] != Kind::Fluid || (0..D).all(|k| x[k] >= lim.lo[k] && x[k] <= lim.hi[k])
+            })
+            .collect();
+        if keep.iter().all(|&k| k) {
+            return 0;
+        }
+        let removed = self.particles.retain(&keep) as u64;
+        self.outflow_removed += removed;
+        self.solver.reset();
+        self.rebuild_neighbors();
+        removed
+    }
+
     /// Stage 6: `u = u* + dt a`, `r = r* + dt^2 a` with `a` the pressure and DS
     /// accelerations; the new state is checked and stored (the step restores the old one on
     /// failure). Returns the largest fluid speed (m/s).
