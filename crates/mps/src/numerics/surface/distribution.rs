@@ -9,9 +9,7 @@
 //! neighbourhood still balanced around the particle (centroid deviation near zero), so the
 //! number-density test alone flags interior particles there; this one does not.
 
-use super::{check_open, parse_params, Detector, ParamError, SurfaceInput};
-use crate::numerics::pairs::pairs;
-use crate::particles::Vector;
+use super::{check_open, parse_params, weighted_offset, Detector, ParamError, SurfaceInput};
 use serde::Deserialize;
 
 /// The distribution test.
@@ -19,16 +17,12 @@ use serde::Deserialize;
 #[serde(deny_unknown_fields)]
 pub struct Distribution {
     /// Number-density threshold `beta` (dimensionless, default 0.97).
-    #[serde(default = "default_beta")]
+    #[serde(default = "super::default_beta")]
     pub beta: f64,
     /// Centroid deviation beyond which the neighbourhood counts as one-sided (units of l0,
     /// default 0.2).
     #[serde(default = "default_threshold")]
     pub threshold: f64,
-}
-
-fn default_beta() -> f64 {
-    0.97
 }
 
 fn default_threshold() -> f64 {
@@ -50,11 +44,7 @@ impl Detector for Distribution {
         if s.number_density[i] >= self.beta * k.n0 {
             return false;
         }
-        let (mut sw, mut centroid) = (0.0, Vector::<D>::zero());
-        for q in pairs(s.pos, s.neighbors, i, k.re) {
-            sw += q.w;
-            centroid += q.xij * q.w;
-        }
+        let (centroid, sw) = weighted_offset(i, s);
         sw == 0.0 || centroid.norm() > self.threshold * s.kernels.l0 * sw
     }
 }
@@ -62,9 +52,9 @@ impl Detector for Distribution {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::numerics::kernel::Kernels;
+    use crate::numerics::surface::flags_of;
+    use crate::particles::Vector;
     use crate::numerics::surface::number_density::NumberDensity;
-    use crate::particles::neighbors::build_neighbor_list;
 
     /// A lattice of `n x n` points at spacing `a` (m).
     fn lattice(n: usize, a: f64) -> Vec<Vector<2>> {
@@ -78,26 +68,12 @@ mod tests {
     }
 
     fn flags(pos: &[Vector<2>], l0: f64) -> (Vec<bool>, Vec<bool>) {
-        let k = Kernels::new::<2>(l0, 2.1, 3.1);
-        let nl = build_neighbor_list(pos, k.lap.re);
-        let nd: Vec<f64> = (0..pos.len())
-            .map(|i| crate::numerics::operators::number_density(i, pos, &nl, k.grad.re))
-            .collect();
-        let s = SurfaceInput {
-            pos,
-            neighbors: &nl,
-            number_density: &nd,
-            kernels: &k,
-        };
         let dist = Distribution {
             beta: 0.97,
             threshold: 0.2,
         };
-        let nd_test = NumberDensity::default();
-        (
-            (0..pos.len()).map(|i| dist.is_surface(i, &s)).collect(),
-            (0..pos.len()).map(|i| nd_test.is_surface(i, &s)).collect(),
-        )
+        let nd = NumberDensity::default();
+        (flags_of(&dist, pos, l0), flags_of(&nd, pos, l0))
     }
 
     /// On a block at rest both tests flag exactly the outermost rows and nothing inside.

@@ -21,6 +21,23 @@ pub struct SurfaceInput<'a, const D: usize> {
     pub kernels: &'a Kernels,
 }
 
+/// The number-density threshold `beta` of `n* < beta n0` every detector starts from
+/// (Koshizuka & Oka 1996), dimensionless.
+pub fn default_beta() -> f64 {
+    0.97
+}
+
+/// The kernel-weighted sum of the neighbours' offsets `sum_j w_ij r_ij` (m) within
+/// re_grad, and `sum_j w_ij`: a one-sided neighbourhood has a large offset.
+pub fn weighted_offset<const D: usize>(i: usize, s: &SurfaceInput<D>) -> (Vector<D>, f64) {
+    let (mut sw, mut offset) = (0.0, Vector::<D>::zero());
+    for q in super::pairs::pairs(s.pos, s.neighbors, i, s.kernels.grad.re) {
+        sw += q.w;
+        offset += q.xij * q.w;
+    }
+    (offset, sw)
+}
+
 /// A free-surface detector.
 pub trait Detector: Sized + Clone + PartialEq + fmt::Debug {
     /// Its name in case files.
@@ -121,6 +138,7 @@ macro_rules! surface_detectors {
 surface_detectors! {
     number_density::NumberDensity,
     distribution::Distribution,
+    scan_region::ScanRegion,
 }
 
 /// Free-surface flags of every particle: fluid particles, and wall particles when
@@ -142,4 +160,22 @@ pub fn detect<const D: usize>(
             tested && detector.is_surface(i, s)
         })
         .collect()
+}
+
+/// The flags `detector` gives the points `pos` (2D, spacing `l0` m, re_grad 2.1, re_lap 3.1):
+/// the unit tests' harness.
+#[cfg(test)]
+pub(crate) fn flags_of<T: Detector>(detector: &T, pos: &[Vector<2>], l0: f64) -> Vec<bool> {
+    let k = Kernels::new::<2>(l0, 2.1, 3.1);
+    let nl = crate::particles::neighbors::build_neighbor_list(pos, k.lap.re);
+    let nd: Vec<f64> = (0..pos.len())
+        .map(|i| super::operators::number_density(i, pos, &nl, k.grad.re))
+        .collect();
+    let s = SurfaceInput {
+        pos,
+        neighbors: &nl,
+        number_density: &nd,
+        kernels: &k,
+    };
+    (0..pos.len()).map(|i| detector.is_surface(i, &s)).collect()
 }

@@ -11,7 +11,7 @@ use serde::Deserialize;
 #[serde(deny_unknown_fields)]
 pub struct NumberDensity {
     /// Threshold `beta` in `n* < beta n0` (dimensionless, default 0.97).
-    #[serde(default = "default_beta")]
+    #[serde(default = "super::default_beta")]
     pub beta: f64,
     /// Neighbour-count criterion: surface when the count within re_grad is below this
     /// fraction of the lattice count (dimensionless; off by default).
@@ -19,14 +19,10 @@ pub struct NumberDensity {
     pub count_ratio: Option<f64>,
 }
 
-fn default_beta() -> f64 {
-    0.97
-}
-
 impl Default for NumberDensity {
     fn default() -> Self {
         NumberDensity {
-            beta: default_beta(),
+            beta: super::default_beta(),
             count_ratio: None,
         }
     }
