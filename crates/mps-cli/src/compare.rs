@@ -9,7 +9,6 @@ use mps::analysis::compare::{join_metrics, markdown_table, CompareRow, SchemeRun
 use mps::io::series::Series;
 use mps::io::write_atomic;
 use mps::run::{run, Silent};
-use mps::Simulation;
 use mps_render::Field;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -86,7 +85,8 @@ pub fn cmd_compare(a: CompareArgs) -> CmdResult {
                         .build()
                         .map_err(|e| bad(format!("thread pool: {e}")))?;
                     pool.install(|| {
-                        let mut sim = Simulation::<2>::new(case.clone(), label)?;
+                        let mut sim =
+                            mps::io::checkpoint::build_simulation::<2>(case.clone(), label)?;
                         let summary = run(&mut sim, &dir, &mut Silent)?;
                         say_err!(
                             "  {scheme}: {}",

@@ -331,7 +331,7 @@ fn cmd_run(a: RunArgs) -> CmdResult {
     let end = case.time.end;
     let vtu = case.output.vtu;
     let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
-    let mut sim = Simulation::<2>::new(case, &label)?;
+    let mut sim = mps::io::checkpoint::build_simulation::<2>(case, &label)?;
     let mut resumed = None;
     if let Some(ck) = &a.restart {
         let dir = restart(&mut sim, ck, a.quiet)?;

@@ -61,6 +61,24 @@ pub struct Case {
     /// Named constants for the expressions of initial fields (e.g. `omega = 1.0`).
     #[serde(default)]
     pub constants: std::collections::BTreeMap<String, f64>,
+    /// A settled start: the particle state of another run's checkpoint.
+    #[serde(default)]
+    pub initial: Option<InitialSpec>,
+}
+
+/// A settled start (`[initial]`): the run begins at t = 0 from the positions, velocities
+/// and pressures of another run's checkpoint, matched particle by particle (by id) to this
+/// case's particles, whose phases, groups and densities come from this case's regions. The
+/// checkpoint must come from the same geometry (domain, spacing, walls, fluid shapes): for
+/// example the same tank run at rest with every region water, then re-assigned here.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpec {
+    /// Checkpoint file, relative to the case file's folder (or absolute).
+    pub state: String,
+    /// The checkpoint's path as resolved when the case loaded.
+    #[serde(skip)]
+    pub path: std::path::PathBuf,
 }
 
 fn default_dimension() -> usize {
@@ -594,8 +612,17 @@ impl Case {
         Ok(case)
     }
 
-    /// Reads the reference curves the validation names, relative to `base`.
+    /// Reads the reference curves the validation names and resolves the settled start's
+    /// checkpoint, relative to `base`.
     fn load_references(&mut self, base: &Path, label: &str) -> Result<(), CaseError> {
+        if let Some(init) = &mut self.initial {
+            init.path = base.join(&init.state);
+            if !init.path.is_file() {
+                let value = format!("{:?}", init.state);
+                let msg = format!("no checkpoint file at {}", init.path.display());
+                return Err(CaseError::new(label, "initial.state", &value, msg));
+            }
+        }
         let reference = match &mut self.validation {
             Some(ValidationSpec::ProbeReference { reference, .. })
             | Some(ValidationSpec::FrontReference { reference, .. }) => reference,

@@ -4,6 +4,7 @@
 
 use super::atomic::write_atomic;
 use crate::error::{Error, Result};
+use crate::input::Case;
 use crate::particles::{Particles, NONE, NO_GROUP};
 use crate::simulation::Simulation;
 use serde::{Deserialize, Serialize};
@@ -74,9 +75,8 @@ fn check_indices<const D: usize>(
     Ok(())
 }
 
-/// Restores time, step and particles of `sim` from checkpoint bytes read from `path`. The
-/// simulation must have been built from the same case (same dimension and particles).
-pub fn restore<const D: usize>(sim: &mut Simulation<D>, bytes: &[u8], path: &Path) -> Result<()> {
+/// The state in checkpoint bytes read from `path`: tag, format and dimension checked.
+fn decode<const D: usize>(bytes: &[u8], path: &Path) -> Result<State<D>> {
     let bad = |message: String| Error::Checkpoint {
         path: path.to_path_buf(),
         message,
@@ -92,6 +92,38 @@ pub fn restore<const D: usize>(sim: &mut Simulation<D>, bytes: &[u8], path: &Pat
             state.dimension
         )));
     }
+    if let Some(f) = state.particles.inconsistent_field() {
+        return Err(bad(format!("field `{f}` has the wrong length")));
+    }
+    Ok(state)
+}
+
+/// Builds the simulation of `case`; with a settled start (`[initial] state`), its particles
+/// then take positions, velocities and pressures from that checkpoint (matched by id; see
+/// [`crate::input::case::InitialSpec`]).
+pub fn build_simulation<const D: usize>(case: Case, label: &str) -> Result<Simulation<D>> {
+    let initial = case.initial.clone();
+    let mut sim = Simulation::<D>::new(case, label)?;
+    if let Some(init) = initial {
+        let bytes = std::fs::read(&init.path).map_err(|e| Error::io(&init.path, e))?;
+        let state = decode::<D>(&bytes, &init.path)?;
+        sim.start_from(&state.particles)
+            .map_err(|m| Error::Checkpoint {
+                path: init.path.clone(),
+                message: format!("initial.state: cannot start from it: {m}"),
+            })?;
+    }
+    Ok(sim)
+}
+
+/// Restores time, step and particles of `sim` from checkpoint bytes read from `path`. The
+/// simulation must have been built from the same case (same dimension and particles).
+pub fn restore<const D: usize>(sim: &mut Simulation<D>, bytes: &[u8], path: &Path) -> Result<()> {
+    let bad = |message: String| Error::Checkpoint {
+        path: path.to_path_buf(),
+        message,
+    };
+    let state = decode::<D>(bytes, path)?;
     if state.case != sim.case.fingerprint() {
         return Err(bad(
             "written by another case: only time.end, max_steps, output, probes, validation and breakdown limits may change for a restart".into(),

@@ -243,6 +243,46 @@ impl<const D: usize> Simulation<D> {
         self.solver.reset();
     }
 
+    /// A settled start: positions, velocities and pressures from `settled` (the particles of
+    /// another run of the same geometry), matched by id; phases, groups and densities stay
+    /// this case's, the clock at 0. Refused when the particle sets differ (count, ids, kinds,
+    /// or a wall or dummy particle elsewhere).
+    pub fn start_from(&mut self, settled: &Particles<D>) -> Result<(), String> {
+        let p = &mut self.particles;
+        if settled.len() != p.len() {
+            let n = settled.len();
+            return Err(format!(
+                "it holds {n} particles, this case builds {}",
+                p.len()
+            ));
+        }
+        let mut at = vec![u32::MAX; p.len()];
+        for (k, &id) in settled.id.iter().enumerate() {
+            match at.get_mut(id as usize) {
+                Some(slot) if *slot == u32::MAX => *slot = k as u32,
+                _ => return Err(format!("particle id {id} out of range or repeated")),
+            }
+        }
+        for i in 0..p.len() {
+            let k = at[p.id[i] as usize] as usize;
+            if settled.kind[k] != p.kind[i]
+                || (p.kind[i] != Kind::Fluid && settled.position[k] != p.position[i])
+            {
+                let id = p.id[i];
+                return Err(format!(
+                    "particle {id} differs in kind or wall position: another geometry"
+                ));
+            }
+            p.position[i] = settled.position[k];
+            p.velocity[i] = settled.velocity[k];
+            p.pressure[i] = settled.pressure[k];
+        }
+        self.solver.reset();
+        self.reorder();
+        self.refresh_diagnostic_fields();
+        Ok(())
+    }
+
     /// Rebuilds the neighbour lists at the current positions (after a restore).
     pub fn rebuild_neighbors(&mut self) {
         self.neighbors = crate::particles::neighbors::build_neighbor_list_within(
