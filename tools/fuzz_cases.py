@@ -31,7 +31,7 @@ EXTREMES = ["0", "-0.0", "-1", "1", "1e308", "-1e308", "1e-300", "nan", "inf", "
             "4294967296", "1e10", "1e-10", "2", "0.5", "100000", "3.0"]
 STRINGS = ['""', '"water"', '"air"', '"x"', '"MPS-HS-GC-DS"', '"CMPS-HS"', '"amg-cg"',
            '"rectangle"', '"circle"', '"hydrostatic"', '"rotation"', '"expression"',
-           '"x*y"', '"1/0"', '"sqrt(-1)"', '"' + "a" * 300 + '"', '"\\u0000"', '"../x"']
+           '"x*y"', '"remove"', '"probe_reference"', '"front_reference"', '"1/0"', '"sqrt(-1)"', '"' + "a" * 300 + '"', '"\\u0000"', '"../x"']
 NUMBER = re.compile(r"(?<![A-Za-z_\"])-?\d+(\.\d+)?([eE][-+]?\d+)?")
 
 
