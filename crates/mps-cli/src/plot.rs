@@ -65,8 +65,8 @@ pub fn line(name: &str, points: Vec<(f64, f64)>) -> Series {
 }
 
 /// The charts of a run folder: every metric (conserved quantities against their initial
-/// value), the dam-break front against Martin & Moyce, each probe (against the hydrostatic
-/// reference when the run has one). A file that is there but unreadable is bad input.
+/// value), the dam-break front against Martin & Moyce, a probe or front against the case's
+/// reference curve, each probe (against the hydrostatic reference when the run has one). A file that is there but unreadable is bad input.
 pub fn run_charts(dir: &Path) -> Result<Vec<(String, Chart)>, Failure> {
     let mut charts = Vec::new();
     let table = |name: &str| -> Result<Option<Table>, Failure> {
@@ -106,6 +106,30 @@ pub fn run_charts(dir: &Path) -> Result<Vec<(String, Chart)>, Failure> {
             ..Default::default()
         };
         charts.push(("validation_dam_break_front".into(), chart));
+    }
+    if let Some(Table { columns: cols, .. }) = table("reference_comparison.csv")? {
+        let what = RunSummary::read(dir)
+            .ok()
+            .and_then(|s| s.validation.first().map(|v| v.name.clone()))
+            .map(|n| n.trim_end_matches("_rms_difference").replace('_', " "))
+            .unwrap_or_else(|| "simulation".into());
+        let unit = if what.starts_with("probe") { "Pa" } else { "m" };
+        let series = vec![
+            line(
+                &format!("{what} at the reference times"),
+                points(&cols, 0, 2),
+            ),
+            Series {
+                name: "reference (the case's CSV)".into(),
+                points: points(&cols, 0, 1),
+                markers: true,
+            },
+        ];
+        let title = format!("{what} against the reference curve");
+        charts.push((
+            "validation_reference".into(),
+            time_chart(&title, unit, series),
+        ));
     }
     if let Some(Table {
         header: h,

@@ -549,3 +549,45 @@ fn a_full_disk_or_a_read_only_folder_exits_3_naming_the_path_and_leaves_no_tempo
         );
     }
 }
+
+/// A run validated against a reference CSV: the comparison is in the summary and
+/// `mps plot` draws the probe against the curve.
+#[test]
+fn a_reference_curve_is_compared_and_plotted() {
+    let text = mps::examples::example("hydrostatic").unwrap();
+    let cut = text.find("[validation]").unwrap();
+    let case = format!(
+        "{}[validation]\nkind = \"probe_reference\"\nprobe = \"bottom\"\n\
+         reference = {{ file = \"gauge.csv\", columns = [\"t\", \"p\"] }}\n\
+         rms_tolerance = 300.0\npeak_tolerance = 600.0\n",
+        &text[..cut]
+    );
+    let path = write_case("reference_plot", &case);
+    let dir = path.parent().unwrap().to_path_buf();
+    let _ = std::fs::remove_dir_all(dir.join("run"));
+    std::fs::write(
+        dir.join("gauge.csv"),
+        "t,p\n0.01,2943\n0.02,2943\n0.03,2943\n",
+    )
+    .unwrap();
+    let run = dir.join("run");
+    succeed(
+        mps()
+            .arg("run")
+            .arg(&path)
+            .args([
+                "-q",
+                "--set",
+                "time.end=0.04",
+                "--set",
+                "output.vtu=false",
+                "--out",
+            ])
+            .arg(&run),
+    );
+    let summary = std::fs::read_to_string(run.join("summary.toml")).unwrap();
+    assert!(summary.contains("probe_bottom_rms_difference"), "{summary}");
+    succeed(mps().arg("plot").arg(&run));
+    let svg = std::fs::read_to_string(run.join("figures/validation_reference.svg")).unwrap();
+    assert!(svg.contains("reference (the case") && svg.contains("probe bottom"));
+}
