@@ -48,25 +48,29 @@ pub fn extrapolated_pressure<const D: usize>(
 ///
 /// With extrapolated pressures, a wall particle whose extrapolation is not positive (above
 /// the waterline, where it runs into the air) leaves the stencil, as the missing air on the
-/// fluid side does (docs/decisions.md, "Wall pressure").
+/// fluid side does (docs/decisions.md, "Wall pressure"). In a `closed` domain (no free
+/// surface, the level set by a reference) there is no air and the level is arbitrary: every
+/// extrapolated wall pressure is kept as it is, negative ones included.
+#[allow(clippy::too_many_arguments)]
 pub fn boundary_pressures<const D: usize>(
     v: &View<D>,
     backing_wall: &[u32],
     model: WallPressure,
     clamp: bool,
+    closed: bool,
     gravity: Vector<D>,
     k: &Kernels,
     pressure: &mut [f64],
 ) -> Vec<bool> {
     let n = v.pos.len();
     let solved: &[f64] = pressure;
-    let boundary: Vec<(usize, f64)> = match model {
+    let boundary: Vec<(usize, (f64, bool))> = match model {
         WallPressure::Extrapolated => (0..n)
             .into_par_iter()
             .filter(|&i| v.kind[i] != Kind::Fluid)
             .map(|i| {
                 let e = extrapolated_pressure(i, v, solved, gravity, k.lap.re);
-                (i, e.unwrap_or(0.0))
+                (i, e.map_or((0.0, false), |p| (p, closed || p > 0.0)))
             })
             .collect(),
         WallPressure::Hydrostatic => (0..n)
@@ -76,7 +80,10 @@ pub fn boundary_pressures<const D: usize>(
                 let w = backing_wall[i] as usize;
                 (
                     i,
-                    solved[w] + v.density[i] * gravity.dot(&(v.pos[i] - v.pos[w])),
+                    (
+                        solved[w] + v.density[i] * gravity.dot(&(v.pos[i] - v.pos[w])),
+                        true,
+                    ),
                 )
             })
             .collect(),
@@ -87,10 +94,10 @@ pub fn boundary_pressures<const D: usize>(
         .iter()
         .map(|k| *k != Kind::Dummy || model != WallPressure::None)
         .collect();
-    for (i, p) in boundary {
+    for (i, (p, carried)) in boundary {
         if model == WallPressure::Extrapolated {
-            carries[i] = p > 0.0;
-            pressure[i] = p.max(0.0);
+            carries[i] = carried;
+            pressure[i] = if closed { p } else { p.max(0.0) };
         } else {
             pressure[i] = if clamp { p.max(0.0) } else { p };
         }
@@ -123,4 +130,66 @@ pub fn wall_densities<const D: usize>(v: &View<D>, backing_wall: &[u32], k: &Ker
             _ => walls[i],
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::particles::neighbors::build_neighbor_list;
+
+    /// A lid row of wall particles above two rows of still water whose pressure is -100 Pa
+    /// at the top (a closed box whose level is set low): the extrapolated lid pressure is
+    /// negative. Open (a free surface somewhere), it is clamped to 0 and leaves the stencil;
+    /// closed, it is kept as extrapolated and carried, so shifting the level shifts every
+    /// wall pressure by the same amount (the gradient cannot see the level).
+    #[test]
+    fn a_closed_domain_keeps_negative_wall_pressures() {
+        let (l0, rho, g) = (0.01, 1000.0, 9.81);
+        let gravity = Vector([0.0, -g]);
+        let k = Kernels::new::<2>(l0, 2.1, 3.1);
+        let (mut pos, mut kind) = (Vec::new(), Vec::new());
+        for row in 0..3 {
+            for col in 0..7 {
+                pos.push(Vector([col as f64 * l0, -(row as f64) * l0]));
+                kind.push(if row == 0 { Kind::Wall } else { Kind::Fluid });
+            }
+        }
+        let n = pos.len();
+        let level =
+            |top: f64| -> Vec<f64> { (0..n).map(|i| top + rho * g * (-pos[i][1] - l0)).collect() };
+        let nl = build_neighbor_list(&pos, k.lap.re);
+        let (density, zero, flags) = (vec![rho; n], vec![0.0; n], vec![false; n]);
+        let vel = vec![Vector::zero(); n];
+        let v = View {
+            pos: &pos,
+            vel: &vel,
+            kind: &kind,
+            density: &density,
+            free_surface: &flags,
+            number_density: &zero,
+            neighbors: &nl,
+        };
+        let bw = vec![NONE; n];
+        let lid = 3;
+        let run = |top: f64, closed: bool| {
+            let mut p = level(top);
+            let carries = boundary_pressures(
+                &v,
+                &bw,
+                WallPressure::Extrapolated,
+                false,
+                closed,
+                gravity,
+                &k,
+                &mut p,
+            );
+            (p[lid], carries[lid])
+        };
+        let (open_p, open_c) = run(-100.0, false);
+        assert_eq!((open_p, open_c), (0.0, false));
+        let (low, c) = run(-100.0, true);
+        assert!(c && low < -100.0, "{low}");
+        let (high, _) = run(900.0, true);
+        assert!(((high - low) - 1000.0).abs() < 1e-9, "{low} {high}");
+    }
 }

@@ -95,6 +95,8 @@ pub struct Simulation<const D: usize> {
     pub outflow_removed: u64,
     neighbors: NeighborList,
     skin: f64,
+    /// The last PPE had no Dirichlet row (a closed domain, its level from the reference).
+    closed: bool,
 }
 
 impl<const D: usize> Simulation<D> {
@@ -132,6 +134,7 @@ impl<const D: usize> Simulation<D> {
             neighbors: NeighborList::default(),
             skin: SKIN * l0,
             outflow_removed: 0,
+            closed: false,
         };
         sim.reorder();
         sim.refresh_diagnostic_fields();
@@ -300,6 +303,8 @@ impl<const D: usize> Simulation<D> {
         let surf = self.density_and_surface(&pos);
         self.particles.number_density = surf.number_density;
         self.particles.free_surface = surf.free_surface;
+        // As the step does: no free surface, no clamp of the walls' extrapolated pressures.
+        let closed = !self.particles.free_surface.iter().any(|&f| f);
         if self.scheme.wall_pressure == crate::numerics::walls::WallPressure::Extrapolated {
             let v = self.view();
             let p = &self.particles;
@@ -314,7 +319,8 @@ impl<const D: usize> Simulation<D> {
                         self.gravity,
                         re,
                     );
-                    (i, e.unwrap_or(0.0).max(0.0))
+                    let p = e.unwrap_or(0.0);
+                    (i, if closed { p } else { p.max(0.0) })
                 })
                 .collect();
             for (i, v) in walls {

@@ -227,6 +227,7 @@ impl<const D: usize> Simulation<D> {
         let clamp = self.scheme.clamp_negative_pressure;
         // A closed domain's level: every unknown offset by the reference value, which the
         // reference particle takes.
+        self.closed = sys.level.is_some();
         let (reference, offset) = match sys.level {
             Some((r, value)) => (r as usize, value),
             None => (usize::MAX, 0.0),
@@ -278,7 +279,8 @@ impl<const D: usize> Simulation<D> {
         let s = &self.scheme;
         let (model, clamp) = (s.wall_pressure, s.clamp_negative_pressure);
         let bw = &self.particles.backing_wall;
-        boundary_pressures(&v, bw, model, clamp, self.gravity, &self.kernels, pressure)
+        let (g, k) = (self.gravity, &self.kernels);
+        boundary_pressures(&v, bw, model, clamp, self.closed, g, k, pressure)
     }
 
     /// Stage 5b: pressure acceleration `-grad p / rho` of every fluid particle (m/s^2).
