@@ -274,7 +274,11 @@ fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
 
 /// Restores `sim` from the checkpoint `ck`; returns the output folder of the restarted run
 /// when none was given.
-fn restart(sim: &mut Simulation<2>, ck: &Path, quiet: bool) -> Result<PathBuf, Failure> {
+fn restart<const D: usize>(
+    sim: &mut Simulation<D>,
+    ck: &Path,
+    quiet: bool,
+) -> Result<PathBuf, Failure> {
     let bytes = std::fs::read(ck)
         .map_err(|e| bad(format!("{}: cannot read checkpoint: {e}", ck.display())))?;
     mps::io::checkpoint::restore(sim, &bytes, ck)?;
@@ -324,14 +328,27 @@ fn print_results(s: &RunSummary, out: &Path) {
 fn cmd_run(a: RunArgs) -> CmdResult {
     set_threads(a.threads)?;
     let (case, label) = load_case(&a.case)?;
-    let mut out = a
+    let out = a
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&case.name));
+    match case.dimension {
+        3 => run_case::<3>(a, case, label, out),
+        _ => run_case::<2>(a, case, label, out),
+    }
+}
+
+/// Runs a loaded `case` in `D` dimensions into `out` (the rest of `mps run`).
+fn run_case<const D: usize>(
+    a: RunArgs,
+    case: mps::Case,
+    label: String,
+    mut out: PathBuf,
+) -> CmdResult {
     let end = case.time.end;
     let vtu = case.output.vtu;
     let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
-    let mut sim = mps::io::checkpoint::build_simulation::<2>(case, &label)?;
+    let mut sim = mps::io::checkpoint::build_simulation::<D>(case, &label)?;
     let mut resumed = None;
     if let Some(ck) = &a.restart {
         let dir = restart(&mut sim, ck, a.quiet)?;

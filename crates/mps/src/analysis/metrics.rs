@@ -25,8 +25,14 @@ pub struct Metrics {
     pub momentum_x: f64,
     /// Linear momentum y component (kg m/s).
     pub momentum_y: f64,
+    /// Linear momentum z component (kg m/s; 0 in 2D).
+    pub momentum_z: f64,
     /// Angular momentum about the origin, z component (kg m^2/s).
     pub angular_momentum: f64,
+    /// Angular momentum about the origin, x component (kg m^2/s; 0 in 2D).
+    pub angular_momentum_x: f64,
+    /// Angular momentum about the origin, y component (kg m^2/s; 0 in 2D).
+    pub angular_momentum_y: f64,
     /// Smallest fluid pair distance / l0 (of the last step).
     #[serde(rename = "min_pair_distance_l0")]
     pub min_pair_distance: f64,
@@ -73,8 +79,8 @@ impl Metrics {
             u2: f64,
             n: f64,
             pe: f64,
-            mom: [f64; 2],
-            ang: f64,
+            mom: [f64; 3],
+            ang: [f64; 3],
             nd: f64,
             nd2: f64,
             count: f64,
@@ -94,9 +100,11 @@ impl Metrics {
                     a.u2 += u.norm2();
                     a.n += 1.0;
                     a.pe -= m * g.dot(&x);
-                    a.mom[0] += m * u[0];
-                    a.mom[1] += m * u[1];
-                    a.ang += m * x.cross_z(&u);
+                    let (um, l) = (u.padded(), x.cross3(&u));
+                    for k in 0..3 {
+                        a.mom[k] += m * um[k];
+                        a.ang[k] += m * l[k];
+                    }
                     if p.free_surface[i] {
                         a.surf += 1;
                     } else {
@@ -115,9 +123,10 @@ impl Metrics {
             t.u2 += a.u2;
             t.n += a.n;
             t.pe += a.pe;
-            t.mom[0] += a.mom[0];
-            t.mom[1] += a.mom[1];
-            t.ang += a.ang;
+            for k in 0..3 {
+                t.mom[k] += a.mom[k];
+                t.ang[k] += a.ang[k];
+            }
             t.nd += a.nd;
             t.nd2 += a.nd2;
             t.count += a.count;
@@ -139,7 +148,10 @@ impl Metrics {
             potential_energy: t.pe,
             momentum_x: t.mom[0],
             momentum_y: t.mom[1],
-            angular_momentum: t.ang,
+            momentum_z: t.mom[2],
+            angular_momentum: t.ang[2],
+            angular_momentum_x: t.ang[0],
+            angular_momentum_y: t.ang[1],
             min_pair_distance: if r.min_pair_distance > 0.0 {
                 r.min_pair_distance / l0
             } else {

@@ -171,6 +171,15 @@ fn default_gravity() -> Vec<f64> {
     vec![0.0, -9.81]
 }
 
+/// Gravity (m/s^2) when the case gives none: along -y in 2D, -z in 3D.
+fn default_gravity_of(dimension: usize) -> Vec<f64> {
+    let mut g = vec![0.0; dimension];
+    if let Some(last) = g.last_mut() {
+        *last = -9.81;
+    }
+    g
+}
+
 /// Time stepping.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -279,14 +288,16 @@ pub struct PhaseSpec {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeSpec {
-    /// Axis-aligned box between two corners (m).
+    /// Axis-aligned box between two corners (m); `type = "box"` reads the same.
+    #[serde(alias = "box")]
     Rectangle {
         /// Lower corner (m).
         min: Vec<f64>,
         /// Upper corner (m).
         max: Vec<f64>,
     },
-    /// Disc of a centre and radius (m).
+    /// Disc (2D) or ball (3D) of a centre and radius (m); `type = "sphere"` reads the same.
+    #[serde(alias = "sphere")]
     Circle {
         /// Centre (m).
         center: Vec<f64>,
@@ -304,6 +315,25 @@ pub enum ShapeSpec {
         points: Vec<Vec<f64>>,
         /// Distance from the line within which lattice points are solid (m).
         thickness: f64,
+    },
+    /// Solid cylinder (3D): the disc of `radius` (m) about `base` (m) swept along `axis` (m,
+    /// its length the cylinder's).
+    Cylinder {
+        /// Centre of one end face (m).
+        base: Vec<f64>,
+        /// From that centre to the centre of the other end face (m).
+        axis: Vec<f64>,
+        /// Radius (m).
+        radius: f64,
+    },
+    /// The inside of a closed STL surface (3D; ASCII or binary, coordinates in m), `file`
+    /// relative to the case file.
+    Stl {
+        /// The STL file.
+        file: String,
+        /// The mesh, read when the case loads.
+        #[serde(skip)]
+        mesh: Option<std::sync::Arc<crate::input::stl::Mesh>>,
     },
     /// The walls of a box whose inside is `min..max` (m), layers generated outward; walls only.
     Tank {
@@ -326,12 +356,16 @@ pub enum VelocitySpec {
         /// Velocity (m/s).
         value: Vec<f64>,
     },
-    /// Solid-body rotation about `center` (m) at `omega` (rad/s, counter-clockwise positive).
+    /// Solid-body rotation about `center` (m) at `omega` (rad/s, counter-clockwise positive);
+    /// in 3D about the line through `center` along `axis` (default z).
     Rotation {
-        /// Centre of rotation (m).
+        /// Centre of rotation (m), a point of the axis in 3D.
         center: Vec<f64>,
-        /// Angular velocity (rad/s), counter-clockwise positive.
+        /// Angular velocity (rad/s), counter-clockwise positive (right-handed about `axis`).
         omega: f64,
+        /// Direction of the rotation axis (3D only, any length but zero; default `[0, 0, 1]`).
+        #[serde(default)]
+        axis: Option<Vec<f64>>,
     },
     /// Affine field `u = u0 + A (x - x0)`.
     Affine {
@@ -615,6 +649,7 @@ impl Case {
     /// Reads the reference curves the validation names and resolves the settled start's
     /// checkpoint, relative to `base`.
     fn load_references(&mut self, base: &Path, label: &str) -> Result<(), CaseError> {
+        self.load_meshes(base, label)?;
         if let Some(init) = &mut self.initial {
             init.path = base.join(&init.state);
             if !init.path.is_file() {
@@ -632,6 +667,27 @@ impl Case {
             let value = format!("{:?}", reference.file);
             CaseError::new(label, "validation.reference.file", &value, m)
         })
+    }
+
+    /// Reads the STL surfaces the shapes name, relative to `base`.
+    fn load_meshes(&mut self, base: &Path, label: &str) -> Result<(), CaseError> {
+        let names: Vec<String> = (0..self.fluid.len())
+            .map(|k| format!("fluid.{k}.shape.file"))
+            .chain((0..self.walls.len()).map(|k| format!("walls.{k}.shape.file")))
+            .collect();
+        let fluid = self.fluid.iter_mut().map(|f| &mut f.shape);
+        let walls = self.walls.iter_mut().map(|w| &mut w.shape);
+        for (shape, field) in fluid.chain(walls).zip(names) {
+            if let ShapeSpec::Stl { file, mesh } = shape {
+                let path = base.join(&*file);
+                let m = crate::input::stl::Mesh::read(&path).map_err(|m| {
+                    let msg = format!("{}: {m}", path.display());
+                    CaseError::new(label, &field, format!("{file:?}"), msg)
+                })?;
+                *mesh = Some(std::sync::Arc::new(m));
+            }
+        }
+        Ok(())
     }
 
     /// Parses and validates case text without reading the files it names.
@@ -652,7 +708,11 @@ impl Case {
         for (k, v) in overrides {
             apply_override(&mut table, k, v).map_err(|m| err(k, v, m))?;
         }
-        let case: Case =
+        let gravity_given = table
+            .get("physics")
+            .and_then(|p| p.get("gravity"))
+            .is_some();
+        let mut case: Case =
             serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
                 let mut field = dotted_path(&e.path().to_string());
                 let mut msg = e.inner().message().trim().to_string();
@@ -674,6 +734,9 @@ impl Case {
                     .unwrap_or_default();
                 err(&field, "", format!("{msg}{line}"))
             })?;
+        if !gravity_given {
+            case.physics.gravity = default_gravity_of(case.dimension);
+        }
         case.validate(label)?;
         Ok(case)
     }

@@ -14,6 +14,7 @@ pub mod reference;
 pub mod scheme_spec;
 pub mod setup;
 pub mod shapes;
+pub mod stl;
 mod validate;
 
 pub use case::Case;

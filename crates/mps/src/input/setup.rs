@@ -203,11 +203,21 @@ fn initial_velocity<const D: usize>(f: &FluidSpec, case: &Case, x: Vector<D>) ->
     match &f.velocity {
         None => Vector::zero(),
         Some(VelocitySpec::Uniform { value }) => to_vec(value),
-        Some(VelocitySpec::Rotation { center, omega }) => {
-            let rel = x - to_vec::<D>(center);
+        Some(VelocitySpec::Rotation {
+            center,
+            omega,
+            axis,
+        }) => {
+            // u = omega a x (x - c), a the unit axis (z in 2D).
+            let a = axis.as_deref().unwrap_or(&[0.0, 0.0, 1.0]);
+            let norm = a.iter().map(|c| c * c).sum::<f64>().sqrt();
+            let a = Vector([a[0] / norm, a[1] / norm, a[2] / norm]);
+            let rel = Vector((x - to_vec::<D>(center)).padded());
+            let w = a.cross3(&rel);
             let mut u = Vector::zero();
-            u[0] = -omega * rel[1];
-            u[1] = omega * rel[0];
+            for k in 0..D {
+                u[k] = omega * w[k];
+            }
             u
         }
         Some(VelocitySpec::Affine { u0, x0, a }) => {

@@ -47,6 +47,13 @@ pub fn inside<const D: usize>(shape: &ShapeSpec, x: &Vector<D>, wall_depth: f64)
         ShapeSpec::Polyline { points, thickness } => points
             .windows(2)
             .any(|w| distance_to_segment((x[0], x[1]), &w[0], &w[1]) <= *thickness),
+        ShapeSpec::Cylinder { base, axis, radius } => {
+            let rel = *x - to_vec::<D>(base);
+            let a = to_vec::<D>(axis);
+            let t = rel.dot(&a) / a.norm2();
+            (-eps..1.0 - eps).contains(&t) && (rel - a * t).norm2() < radius * radius
+        }
+        ShapeSpec::Stl { mesh, .. } => mesh.as_ref().is_some_and(|m| m.contains(x.padded())),
         ShapeSpec::Tank { min, max, open_top } => {
             let mut omin: Vec<f64> = min.iter().map(|v| v - wall_depth).collect();
             let mut omax: Vec<f64> = max.iter().map(|v| v + wall_depth).collect();
@@ -69,6 +76,16 @@ pub fn shape_bounds(s: &ShapeSpec) -> (Vec<f64>, Vec<f64>) {
             center.iter().map(|c| c - radius).collect(),
             center.iter().map(|c| c + radius).collect(),
         ),
+        ShapeSpec::Cylinder { base, axis, radius } => {
+            // The box of both end discs (generous for a tilted axis).
+            let lo = (0..base.len()).map(|k| base[k].min(base[k] + axis[k]) - radius);
+            let hi = (0..base.len()).map(|k| base[k].max(base[k] + axis[k]) + radius);
+            (lo.collect(), hi.collect())
+        }
+        ShapeSpec::Stl { mesh, .. } => match mesh {
+            Some(m) => (m.lo.to_vec(), m.hi.to_vec()),
+            None => (vec![0.0; 3], vec![0.0; 3]),
+        },
         ShapeSpec::Polygon { points } | ShapeSpec::Polyline { points, .. } => {
             let pad = match s {
                 ShapeSpec::Polyline { thickness, .. } => *thickness,

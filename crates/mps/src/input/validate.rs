@@ -78,7 +78,30 @@ impl Checker<'_> {
                 self.vector(&at("center"), center)?;
                 self.positive(&at("radius"), *radius)?;
             }
+            ShapeSpec::Cylinder { base, axis, radius } => {
+                if self.d != 3 {
+                    return self.fail(
+                        &at("type"),
+                        "\"cylinder\"",
+                        "3D only (a 2D disc is `circle`)",
+                    );
+                }
+                self.vector(&at("base"), base)?;
+                self.vector(&at("axis"), axis)?;
+                if axis.iter().all(|c| *c == 0.0) {
+                    return self.fail(&at("axis"), format!("{axis:?}"), "must not be zero");
+                }
+                self.positive(&at("radius"), *radius)?;
+            }
+            ShapeSpec::Stl { file, .. } => {
+                if self.d != 3 {
+                    return self.fail(&at("file"), format!("{file:?}"), "STL surfaces are 3D only");
+                }
+            }
             ShapeSpec::Polygon { points } | ShapeSpec::Polyline { points, .. } => {
+                if self.d != 2 {
+                    return self.fail(&at("type"), "\"polygon\"", "2D only (in 3D use stl)");
+                }
                 let need = if matches!(s, ShapeSpec::Polygon { .. }) {
                     3
                 } else {
@@ -110,8 +133,8 @@ impl Case {
             label,
             d: self.dimension,
         };
-        if c.d != 2 {
-            let msg = "only 2D is supported in this version (3D is planned)";
+        if c.d != 2 && c.d != 3 {
+            let msg = "2 or 3";
             return c.fail("dimension", c.d.to_string(), msg);
         }
         // The name is the default output folder `runs/<name>`: a plain name, no path.
@@ -333,14 +356,29 @@ impl Case {
         c.shape(&at("shape"), &f.shape, false)?;
         let (lo, hi) = shape_bounds(&f.shape);
         let (dmin, dmax) = (&self.domain.min, &self.domain.max);
-        if (0..c.d).any(|i| lo[i] < dmin[i] - 1e-12 || hi[i] > dmax[i] + 1e-12) {
+        // An STL region's extent is known once its file is read (the set-up clips it).
+        let stl = matches!(f.shape, ShapeSpec::Stl { .. });
+        if !stl && (0..c.d).any(|i| lo[i] < dmin[i] - 1e-12 || hi[i] > dmax[i] + 1e-12) {
             let msg = "region lies (partly) outside the domain";
             return c.fail(&at("shape"), format!("{lo:?}..{hi:?}"), msg);
         }
         match &f.velocity {
             Some(VelocitySpec::Uniform { value }) => c.vector(&at("velocity.value"), value)?,
-            Some(VelocitySpec::Rotation { center, omega }) => {
+            Some(VelocitySpec::Rotation {
+                center,
+                omega,
+                axis,
+            }) => {
                 c.vector(&at("velocity.center"), center)?;
+                if let Some(a) = axis {
+                    if c.d != 3 {
+                        return c.fail(&at("velocity.axis"), format!("{a:?}"), "3D only");
+                    }
+                    c.vector(&at("velocity.axis"), a)?;
+                    if a.iter().all(|x| *x == 0.0) {
+                        return c.fail(&at("velocity.axis"), format!("{a:?}"), "must not be zero");
+                    }
+                }
                 c.require(
                     omega.is_finite(),
                     &at("velocity.omega"),

@@ -133,6 +133,43 @@ mod tests {
         Scheme::preset(name).unwrap().gradient
     }
 
+    /// In 3D too: CMPS conserves force and all three torque components on a shaken lattice
+    /// with random pressures.
+    #[test]
+    fn cmps_conserves_linear_and_angular_momentum_in_3d() {
+        let l0 = 0.01;
+        let (pos, _) = crate::numerics::operators::tests::lattice_d::<3>(7, l0, 0.4);
+        let n = pos.len();
+        let p: Vec<f64> = (0..n)
+            .map(|i| 1000.0 * ((i as f64 * 0.37).sin() + 1.0))
+            .collect();
+        let k = Kernels::new::<3>(l0, 2.1, 3.1);
+        let rho = vec![1000.0; n];
+        let cloud = Cloud::new(
+            pos.clone(),
+            vec![Vector::zero(); n],
+            rho.clone(),
+            0.0,
+            k.lap.re,
+        );
+        let f = cloud.view();
+        let s = scheme("CMPS-HS");
+        let carries = vec![true; n];
+        let ph: Vec<f64> = (0..n)
+            .map(|i| p_hat(i, &f, &p, &carries, k.grad.re))
+            .collect();
+        let (mut force, mut torque, mut scale) = (Vector::<3>::zero(), Vector::<3>::zero(), 0.0);
+        for i in 0..n {
+            let a = pressure_acceleration(i, &f, &p, &ph, &carries, &k, &s) * rho[i];
+            force += a;
+            torque += Vector(pos[i].cross3(&a));
+            scale += a.norm();
+        }
+        assert!(scale > 0.0);
+        assert!(force.norm() < 1e-12 * scale, "force {force:?} vs {scale}");
+        assert!(torque.norm() < 1e-12 * scale, "torque {torque:?}");
+    }
+
     /// CMPS pair terms are antisymmetric: the total force and torque vanish to round-off on a
     /// random cloud with random pressures.
     #[test]

@@ -132,6 +132,69 @@ pub(crate) mod tests {
         (p, (n / 2) * n + n / 2)
     }
 
+    /// A cubic lattice of `n^D` points, spacing `l0`, each coordinate shifted at random by
+    /// up to `jitter` l0 / 2, and the index of the central point.
+    pub(crate) fn lattice_d<const D: usize>(
+        n: usize,
+        l0: f64,
+        jitter: f64,
+    ) -> (Vec<Vector<D>>, usize) {
+        let mut s = 7u64;
+        let mut p = Vec::new();
+        for k in 0..n.pow(D as u32) {
+            let mut x = Vector::<D>::zero();
+            let mut rest = k;
+            for d in 0..D {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let r = (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                x[d] = ((rest % n) as f64 + jitter * r) * l0;
+                rest /= n;
+            }
+            p.push(x);
+        }
+        let c = (0..D).map(|d| (n / 2) * n.pow(d as u32)).sum();
+        (p, c)
+    }
+
+    #[test]
+    fn in_3d_c_is_3i_inside_and_the_corrected_gradient_is_exact_on_a_perturbed_lattice() {
+        let l0 = 0.01;
+        let (p, c) = lattice_d::<3>(9, l0, 0.0);
+        let k = KernelConstants::on_lattice::<3>(2.1 * l0, l0);
+        let nl = build_neighbor_list(&p, 3.1 * l0);
+        let m = gradient_correction(c, &p, &nl, &k, |_| true, 0.2);
+        for a in 0..3 {
+            for b in 0..3 {
+                let want = if a == b { 3.0 } else { 0.0 };
+                assert!((m.0[a][b] - want).abs() < 1e-9, "{m:?}");
+            }
+        }
+        // Laplacian of r^2 is 2 d = 6 with the 3D lambda at re_lap.
+        let kl = KernelConstants::on_lattice::<3>(3.1 * l0, l0);
+        let phi: Vec<f64> = p.iter().map(|x| x.norm2()).collect();
+        let lap = laplacian(c, &p, &phi, &nl, &kl);
+        assert!((lap - 6.0).abs() < 1e-9, "lap = {lap}");
+        // A linear field on a lattice shaken by up to 0.15 l0: exact with GC, not without.
+        let (p, c) = lattice_d::<3>(9, l0, 0.3);
+        let nl = build_neighbor_list(&p, 3.1 * l0);
+        let want = Vector([3.0, -2.0, 0.5]);
+        let phi: Vec<f64> = p.iter().map(|x| want.dot(x)).collect();
+        let cm = gradient_correction(c, &p, &nl, &k, |_| true, 0.2);
+        let xi = p[c];
+        let mut g = Vector::zero();
+        for &j in nl.of(c) {
+            let j = j as usize;
+            let r = p[j] - xi;
+            let w = weight(r.norm(), k.re);
+            g += cm.mul_vec(&r) * ((phi[j] - phi[c]) * w / (r.norm2() * k.n0));
+        }
+        assert!((g - want).norm() < 1e-9, "{g:?}");
+        let raw = gradient(c, &p, &phi, &nl, &k);
+        assert!((raw - want).norm() > 1e-3, "{raw:?}");
+    }
+
     #[test]
     fn laplacian_of_r_squared_is_2d_on_the_lattice() {
         let l0 = 0.01;

@@ -136,6 +136,44 @@ mod tests {
         assert!((d0 * 2650.0 + d1 * 1000.0).norm() < 1e-15);
     }
 
+    /// In 3D, with the gradient driving the pair together off its line: the repulsion acts
+    /// along the pair line, restores the predicted distance to alpha l0 (Eq. 14-19 with the
+    /// perpendicular part), and conserves momentum with unequal densities.
+    #[test]
+    fn in_3d_the_pair_is_restored_along_its_line_with_momentum_conserved() {
+        let l0 = 0.01;
+        let x1 = Vector([0.5, 0.4, 0.6]) * l0;
+        let pos = vec![Vector::zero(), x1];
+        let rho = [2650.0, 1000.0];
+        let cloud = Cloud::new(pos, vec![Vector::zero(); 2], rho.to_vec(), 0.0, 3.1 * l0);
+        let f = cloud.view();
+        let k = Kernels::new::<3>(l0, 2.1, 3.1);
+        let ds = DynamicStabilization {
+            alpha: 0.9,
+            weighting: DsWeighting::None,
+            walls: true,
+        };
+        let dt = 1e-3;
+        // Gradient accelerations that bring j towards i and shear it sideways.
+        let acc = vec![Vector([0.0, 0.0, 0.0]), Vector([-1.0, 0.5, -0.8])];
+        let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).0;
+        let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).0;
+        let e = x1 / x1.norm();
+        for a in [a0, a1] {
+            assert!(
+                (a - e * a.dot(&e)).norm() < 1e-9 * a.norm(),
+                "{a:?} not along e"
+            );
+        }
+        assert!((a0 * rho[0] + a1 * rho[1]).norm() < 1e-9 * a1.norm() * rho[1]);
+        let predicted = x1 + (acc[1] + a1 - acc[0] - a0) * (dt * dt);
+        assert!(
+            (predicted.norm() - 0.9 * l0).abs() < 1e-12,
+            "{}",
+            predicted.norm() / l0
+        );
+    }
+
     #[test]
     fn pair_beyond_threshold_is_untouched() {
         let [d0, d1] = pair(0.95, [1000.0, 1000.0], DsWeighting::Kernel);

@@ -90,6 +90,25 @@ impl<const D: usize> Vector<D> {
     pub fn cross_z(&self, o: &Self) -> f64 {
         self.0[0] * o.0[1] - self.0[1] * o.0[0]
     }
+    /// The cross product as a 3-vector, a 2D vector taken in the plane z = 0.
+    #[inline]
+    pub fn cross3(&self, o: &Self) -> [f64; 3] {
+        let (a, b) = (self.padded(), o.padded());
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+    /// The components padded with zeros to three.
+    #[inline]
+    pub fn padded(&self) -> [f64; 3] {
+        let mut v = [0.0; 3];
+        for (k, c) in self.0.iter().take(3).enumerate() {
+            v[k] = *c;
+        }
+        v
+    }
 }
 
 impl<const D: usize> Index<usize> for Vector<D> {
