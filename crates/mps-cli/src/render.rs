@@ -2,7 +2,7 @@
 
 use crate::failure::{bad, io_error, CmdResult, Failure};
 use clap::Args;
-use mps_render::{read_pvd, render_frame, Field, Frame, RenderOptions};
+use mps_render::{read_pvd, render_frame, Field, Frame, Projection, RenderOptions};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -53,6 +53,14 @@ pub struct RenderArgs {
     /// range, as an animation.
     #[arg(long)]
     movie: bool,
+    /// 3D runs: draw the particles within l0/2 of a plane, `AXIS=POSITION` (m), e.g.
+    /// `y=0.05` (default: the plane normal to y through the middle of the fluid).
+    #[arg(long, value_parser = |s: &str| Projection::parse(s, true), conflicts_with = "view")]
+    slice: Option<Projection>,
+    /// 3D runs: an orthographic view of every fluid particle along an axis (`x`, `y` or `z`),
+    /// nearer particles over farther ones, shaded by depth.
+    #[arg(long, value_parser = |s: &str| Projection::parse(s, false))]
+    view: Option<Projection>,
     /// Frames per second of the movie.
     #[arg(long, default_value = "10", value_parser = clap::value_parser!(u16).range(1..=50))]
     fps: u16,
@@ -60,8 +68,36 @@ pub struct RenderArgs {
 
 /// Reads the frame of VTU file `path`; an unreadable file is bad input naming it.
 pub fn read_frame(path: &Path) -> Result<Frame, Failure> {
+    read_frame_projected(path, Projection::default())
+}
+
+/// Reads the frame of VTU file `path`, a 3D run drawn by `projection`.
+pub fn read_frame_projected(path: &Path, projection: Projection) -> Result<Frame, Failure> {
     let bytes = std::fs::read(path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
-    Ok(Frame::from_vtu(&bytes, path)?)
+    Ok(Frame::from_vtu_projected(&bytes, path, projection)?)
+}
+
+impl RenderArgs {
+    /// How a 3D run is drawn.
+    fn projection(&self) -> Projection {
+        self.view.or(self.slice).unwrap_or_default()
+    }
+
+    /// The name part that tells the projection (empty by default).
+    fn projection_tag(&self) -> String {
+        let axis = |a: usize| ["x", "y", "z"][a.min(2)];
+        match (self.view, self.slice) {
+            (Some(Projection::View { axis: a }), _) => format!("_view{}", axis(a)),
+            (_, Some(Projection::Slice { axis: a, at })) => {
+                format!(
+                    "_slice{}{}",
+                    axis(a),
+                    at.map_or(String::new(), |v| format!("{v}"))
+                )
+            }
+            _ => String::new(),
+        }
+    }
 }
 
 /// The `(time, file)` snapshots listed in a run folder's `particles.pvd`.
@@ -85,7 +121,7 @@ pub fn snapshots(run_dir: &Path) -> Result<Vec<(f64, String)>, Failure> {
 fn movie(a: &RenderArgs, chosen: &[(f64, String)], out: &Path) -> Result<PathBuf, Failure> {
     let frames: Vec<Frame> = chosen
         .par_iter()
-        .map(|(_, file)| read_frame(&a.run_dir.join(file)))
+        .map(|(_, file)| read_frame_projected(&a.run_dir.join(file), a.projection()))
         .collect::<Result<_, _>>()?;
     let bounds = mps_render::union_bounds(frames.iter().map(Frame::bounds));
     let range = a.range.or_else(|| {
@@ -110,7 +146,7 @@ fn movie(a: &RenderArgs, chosen: &[(f64, String)], out: &Path) -> Result<PathBuf
             render_frame(frame, &opts)
         })
         .collect();
-    let gif = out.join(format!("{}.gif", a.field.name()));
+    let gif = out.join(format!("{}{}.gif", a.field.name(), a.projection_tag()));
     let bytes =
         mps_render::movie::gif_bytes(&canvases, 100 / a.fps).map_err(|e| io_error(&gif, e))?;
     mps::io::write_atomic(&gif, &bytes)?;
@@ -137,7 +173,7 @@ pub fn cmd_render(a: RenderArgs) -> CmdResult {
     let written: Vec<Result<PathBuf, Failure>> = chosen
         .par_iter()
         .map(|(_, file)| {
-            let frame = read_frame(&a.run_dir.join(file))?;
+            let frame = read_frame_projected(&a.run_dir.join(file), a.projection())?;
             let opts = RenderOptions {
                 width: a.width,
                 field: a.field,
@@ -147,7 +183,8 @@ pub fn cmd_render(a: RenderArgs) -> CmdResult {
                 ..Default::default()
             };
             let stem = file.trim_end_matches(".vtu");
-            let png = out.join(format!("{}_{stem}.png", a.field.name()));
+            let tag = a.projection_tag();
+            let png = out.join(format!("{}{tag}_{stem}.png", a.field.name()));
             render_frame(&frame, &opts).write_png(&png)?;
             Ok(png)
         })

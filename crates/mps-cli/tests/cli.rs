@@ -591,3 +591,42 @@ fn a_reference_curve_is_compared_and_plotted() {
     let svg = std::fs::read_to_string(run.join("figures/validation_reference.svg")).unwrap();
     assert!(svg.contains("reference (the case") && svg.contains("probe bottom"));
 }
+
+/// A 3D case with a wrong STL wall exits 1 with one line naming the case, the field, the
+/// STL file and what is wrong: a missing file, an open surface, text that is no STL.
+#[test]
+fn a_wrong_stl_wall_exits_1_naming_the_file_and_the_fault() {
+    let case = include_str!("../../mps/cases/dam_break_obstacle_3d.toml");
+    let stl = include_str!("../../mps/cases/obstacle.stl");
+    // The block without its last facet: an open surface.
+    let cut = stl.rfind("  facet").unwrap();
+    let open = format!("{}endsolid obstacle\n", &stl[..cut]);
+    let p = write_case("stl_wrong", case);
+    let dir = p.parent().unwrap().to_path_buf();
+    for (file, content, needle) in [
+        ("missing.stl", None, "cannot read"),
+        ("open.stl", Some(open.as_str()), "not a closed surface"),
+        (
+            "junk.stl",
+            Some("solid x\nfacet nonsense\n"),
+            "not an STL file",
+        ),
+    ] {
+        if let Some(c) = content {
+            std::fs::write(dir.join(file), c).unwrap();
+        }
+        let out = mps()
+            .args(["run", "-q", "--set"])
+            .arg(format!("walls.1.shape.file={file}"))
+            .arg(&p)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{file}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{file}: {err}");
+        assert!(
+            err.contains(file) && err.contains("walls.1.shape.file") && err.contains(needle),
+            "{file}: {err}"
+        );
+    }
+}

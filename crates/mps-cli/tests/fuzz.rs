@@ -246,8 +246,16 @@ fn exercise(case: Case, label: &str) -> Result<(), TestCaseError> {
         log("loaded, too large to build here");
         return Ok(());
     }
+    match case.dimension {
+        3 => exercise_in::<3>(case, label),
+        _ => exercise_in::<2>(case, label),
+    }
+}
+
+/// [`exercise`] in `D` dimensions, as the program runs a case.
+fn exercise_in<const D: usize>(case: Case, label: &str) -> Result<(), TestCaseError> {
     // (A settled start's checkpoint error names that file, not the case.)
-    let mut sim = match build_simulation::<2>(case, label) {
+    let mut sim = match build_simulation::<D>(case, label) {
         Ok(s) => s,
         Err(e) => {
             log("set-up refused");

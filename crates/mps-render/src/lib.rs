@@ -11,5 +11,7 @@ pub mod report;
 pub mod snapshot;
 
 pub use canvas::Canvas;
-pub use snapshot::{compose, read_pvd, render_frame, union_bounds, Field, Frame, RenderOptions};
+pub use snapshot::{
+    compose, read_pvd, render_frame, union_bounds, Field, Frame, Projection, RenderOptions,
+};
 pub mod movie;

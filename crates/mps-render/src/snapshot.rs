@@ -30,6 +30,10 @@ pub struct Frame {
     pub phase: Vec<f64>,
     /// Free-surface flag (1 on the surface).
     pub free_surface: Vec<f64>,
+    /// Speed (m/s), of all components (a 3D run's out-of-page one included).
+    pub speed: Vec<f64>,
+    /// Brightness factor of each particle (1; less for far particles of a 3D view).
+    pub shade: Vec<f64>,
 }
 
 /// Particle spacing (m) estimated as the median nearest-neighbour distance of up to 200
@@ -113,27 +117,159 @@ impl Field {
     }
 }
 
+/// How a 3D run is drawn on the page (a 2D run is drawn as it is).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// The particles within l0/2 of the plane `x[axis] = at` (m); `at` by default through
+    /// the middle of the fluid.
+    Slice {
+        /// Axis normal to the plane (0 x, 1 y, 2 z).
+        axis: usize,
+        /// Position of the plane along it (m).
+        at: Option<f64>,
+    },
+    /// Every fluid particle seen along `axis` from its low side, nearer ones drawn over
+    /// farther ones and shaded by depth; walls only behind the fluid.
+    View {
+        /// Axis of the line of sight (0 x, 1 y, 2 z).
+        axis: usize,
+    },
+}
+
+impl Default for Projection {
+    fn default() -> Self {
+        Projection::Slice { axis: 1, at: None }
+    }
+}
+
+impl Projection {
+    /// The two page axes (right, up) for line of sight `axis`: the others, in order.
+    pub fn page_axes(axis: usize) -> [usize; 2] {
+        match axis {
+            0 => [1, 2],
+            1 => [0, 2],
+            _ => [0, 1],
+        }
+    }
+
+    /// Parses `x=0.05` (a slice) or `y` (a view along the axis).
+    pub fn parse(s: &str, slice: bool) -> Result<Projection, String> {
+        let (name, at) = match s.split_once('=') {
+            Some((n, v)) => (n.trim(), Some(v.trim())),
+            None => (s.trim(), None),
+        };
+        let axis = ["x", "y", "z"]
+            .iter()
+            .position(|a| *a == name)
+            .ok_or_else(|| format!("{s}: the axis is x, y or z"))?;
+        if !slice {
+            return match at {
+                None => Ok(Projection::View { axis }),
+                Some(_) => Err(format!("{s}: a view names an axis only (x, y or z)")),
+            };
+        }
+        let at = match at {
+            None => None,
+            Some(v) => match v.parse::<f64>() {
+                Ok(x) if x.is_finite() => Some(x),
+                _ => return Err(format!("{s}: expected AXIS=POSITION, e.g. y=0.05")),
+            },
+        };
+        Ok(Projection::Slice { axis, at })
+    }
+}
+
+/// The median of the fluid's coordinate `axis` (m); 0 without fluid.
+fn fluid_median(pos: &[[f64; 3]], kind: &[u8], axis: usize) -> f64 {
+    let mut v: Vec<f64> = (0..pos.len())
+        .filter(|&i| kind[i] == 0)
+        .map(|i| pos[i][axis])
+        .collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
 impl Frame {
-    /// Reads a frame from the bytes of VTU file `path` written by the solver.
+    /// Reads a frame from the bytes of VTU file `path` written by the solver (a 3D run
+    /// through the default slice).
     pub fn from_vtu(bytes: &[u8], path: &Path) -> mps::error::Result<Frame> {
-        let (p, time, spacing) = read_vtu::<2>(bytes, path)?;
-        let position: Vec<[f64; 2]> = p.position.iter().map(|x| x.0).collect();
+        Frame::from_vtu_projected(bytes, path, Projection::default())
+    }
+
+    /// Reads a frame from VTU file `path`; a 3D run is drawn by `projection`.
+    pub fn from_vtu_projected(
+        bytes: &[u8],
+        path: &Path,
+        projection: Projection,
+    ) -> mps::error::Result<Frame> {
+        let (p, time, spacing) = read_vtu::<3>(bytes, path)?;
+        let dimension = mps::io::vtu::read_vtu_field_data(bytes, "Dimension").unwrap_or(2.0);
+        let pos3: Vec<[f64; 3]> = p.position.iter().map(|x| x.0).collect();
+        let kind: Vec<u8> = p.kind.iter().map(|&k| k as u8).collect();
+        // Which particles are drawn, in which order, on which page axes; and a depth shade.
+        let n = pos3.len();
+        let (order, axes, shade): (Vec<usize>, [usize; 2], Vec<f64>) = if dimension < 2.5 {
+            ((0..n).collect(), [0, 1], vec![1.0; n])
+        } else {
+            let l0 = spacing.unwrap_or(0.0);
+            match projection {
+                Projection::Slice { axis, at } => {
+                    let at = at.unwrap_or_else(|| fluid_median(&pos3, &kind, axis));
+                    let keep = (0..n)
+                        .filter(|&i| (pos3[i][axis] - at).abs() <= 0.5 * l0 + 1e-12)
+                        .collect();
+                    (keep, Projection::page_axes(axis), vec![1.0; n])
+                }
+                Projection::View { axis } => {
+                    let fluid = (0..n).filter(|&i| kind[i] == 0);
+                    let depths = fluid.clone().map(|i| pos3[i][axis]);
+                    let near = depths.clone().fold(f64::INFINITY, f64::min);
+                    let far = depths.fold(f64::NEG_INFINITY, f64::max);
+                    // Fluid, and walls from the nearest fluid depth back; far ones first.
+                    let mut keep: Vec<usize> = (0..n)
+                        .filter(|&i| kind[i] == 0 || (kind[i] == 1 && pos3[i][axis] >= near))
+                        .collect();
+                    keep.sort_by(|&a, &b| pos3[b][axis].total_cmp(&pos3[a][axis]));
+                    let span = (far - near).max(1e-12);
+                    let shade = (0..n)
+                        .map(|i| 1.0 - 0.45 * ((pos3[i][axis] - near) / span).clamp(0.0, 1.0))
+                        .collect();
+                    (keep, Projection::page_axes(axis), shade)
+                }
+            }
+        };
+        let position: Vec<[f64; 2]> = order
+            .iter()
+            .map(|&i| [pos3[i][axes[0]], pos3[i][axes[1]]])
+            .collect();
+        let pick = |v: &[f64]| order.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        let speed: Vec<f64> = p.velocity.iter().map(|u| u.norm()).collect();
         let spacing = spacing
             .or_else(|| estimate_spacing(&position))
             .ok_or_else(|| mps::Error::Format {
                 path: path.to_path_buf(),
                 message: "no Spacing in field data and too few particles to estimate it".into(),
             })?;
+        let phase: Vec<f64> = p.phase.iter().map(|&v| v as f64).collect();
+        let surface: Vec<f64> = p.free_surface.iter().map(|&f| f as u8 as f64).collect();
         Ok(Frame {
             time: time.unwrap_or(0.0),
             spacing,
             position,
-            velocity: p.velocity.iter().map(|u| u.0).collect(),
-            kind: p.kind.iter().map(|&k| k as u8).collect(),
-            pressure: p.pressure,
-            density: p.density,
-            phase: p.phase.iter().map(|&v| v as f64).collect(),
-            free_surface: p.free_surface.iter().map(|&f| f as u8 as f64).collect(),
+            velocity: order
+                .iter()
+                .map(|&i| [p.velocity[i][axes[0]], p.velocity[i][axes[1]]])
+                .collect(),
+            speed: pick(&speed),
+            kind: order.iter().map(|&i| kind[i]).collect(),
+            pressure: pick(&p.pressure),
+            density: pick(&p.density),
+            phase: pick(&phase),
+            free_surface: pick(&surface),
+            shade: pick(&shade),
         })
     }
 
@@ -141,11 +277,7 @@ impl Frame {
     pub fn values(&self, field: Field) -> Vec<f64> {
         match field {
             Field::Pressure => self.pressure.clone(),
-            Field::Velocity => self
-                .velocity
-                .iter()
-                .map(|u| (u[0] * u[0] + u[1] * u[1]).sqrt())
-                .collect(),
+            Field::Velocity => self.speed.clone(),
             Field::Phase => self.phase.clone(),
             Field::Density => self.density.clone(),
             Field::Surface => self.free_surface.clone(),
@@ -319,6 +451,11 @@ pub fn placement(frame: &Frame, opts: &RenderOptions) -> Placement {
     }
 }
 
+/// The brightness factor of particle `i` (1 where the frame has none).
+fn self_shade(frame: &Frame, i: usize) -> f64 {
+    frame.shade.get(i).copied().unwrap_or(1.0)
+}
+
 /// Draws one frame.
 pub fn render_frame(frame: &Frame, opts: &RenderOptions) -> Canvas {
     let pl = placement(frame, opts);
@@ -340,7 +477,9 @@ pub fn render_frame(frame: &Frame, opts: &RenderOptions) -> Canvas {
     for i in 0..frame.position.len() {
         if frame.kind[i] == 0 {
             let (x, y) = pl.to_px(frame.position[i]);
-            c.disc(x, y, r, viridis((values[i] - vmin) / span));
+            let rgb = viridis((values[i] - vmin) / span);
+            let s = self_shade(frame, i);
+            c.disc(x, y, r, rgb.map(|v| (v as f64 * s).round() as u8));
         }
     }
     let (name, unit) = opts.field.label();
@@ -460,6 +599,8 @@ mod tests {
             density: vec![1000.0; 4],
             phase: vec![0.0; 4],
             free_surface: vec![0.0; 4],
+            speed: vec![1.0, 0.0, 0.0, 0.0],
+            shade: vec![1.0; 4],
         }
     }
 

@@ -37,3 +37,8 @@ pub fn column(path: &std::path::Path, name: &str) -> Vec<f64> {
         .unwrap_or_else(|| panic!("{}: no column {name}", path.display()));
     t.columns[k].clone()
 }
+
+/// A built 3D simulation of an example.
+pub fn sim3(name: &str, set: &[(&str, &str)]) -> Simulation<3> {
+    Simulation::<3>::new(example(name, set), name).expect("builds")
+}

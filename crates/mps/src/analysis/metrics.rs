@@ -65,6 +65,40 @@ pub struct Metrics {
     pub outflow_removed: u64,
 }
 
+/// Sums over fluid particles (energies, momenta, number-density moments).
+#[derive(Default, Clone, Copy)]
+struct Acc {
+    ke: f64,
+    u2: f64,
+    n: f64,
+    pe: f64,
+    mom: [f64; 3],
+    ang: [f64; 3],
+    nd: f64,
+    nd2: f64,
+    count: f64,
+    surf: usize,
+}
+
+impl Acc {
+    /// The sums of `self` and `a`.
+    fn plus(mut self, a: &Acc) -> Acc {
+        self.ke += a.ke;
+        self.u2 += a.u2;
+        self.n += a.n;
+        self.pe += a.pe;
+        for k in 0..3 {
+            self.mom[k] += a.mom[k];
+            self.ang[k] += a.ang[k];
+        }
+        self.nd += a.nd;
+        self.nd2 += a.nd2;
+        self.count += a.count;
+        self.surf += a.surf;
+        self
+    }
+}
+
 impl Metrics {
     /// Measures the current state of a simulation.
     pub fn measure<const D: usize>(sim: &Simulation<D>) -> Metrics {
@@ -73,19 +107,6 @@ impl Metrics {
         let vol = l0.powi(D as i32);
         let g = sim.gravity;
         let n0 = sim.kernels.grad.n0;
-        #[derive(Default, Clone, Copy)]
-        struct Acc {
-            ke: f64,
-            u2: f64,
-            n: f64,
-            pe: f64,
-            mom: [f64; 3],
-            ang: [f64; 3],
-            nd: f64,
-            nd2: f64,
-            count: f64,
-            surf: usize,
-        }
         let idx: Vec<usize> = (0..p.len()).filter(|&i| p.kind[i] == Kind::Fluid).collect();
         // Fixed-order reduction: chunks in parallel, summed in sequence.
         let parts: Vec<Acc> = idx
@@ -117,21 +138,7 @@ impl Metrics {
                 a
             })
             .collect();
-        let mut t = Acc::default();
-        for a in parts {
-            t.ke += a.ke;
-            t.u2 += a.u2;
-            t.n += a.n;
-            t.pe += a.pe;
-            for k in 0..3 {
-                t.mom[k] += a.mom[k];
-                t.ang[k] += a.ang[k];
-            }
-            t.nd += a.nd;
-            t.nd2 += a.nd2;
-            t.count += a.count;
-            t.surf += a.surf;
-        }
+        let t = parts.iter().fold(Acc::default(), Acc::plus);
         let mean = if t.count > 0.0 { t.nd / t.count } else { 0.0 };
         let var = if t.count > 0.0 {
             (t.nd2 / t.count - mean * mean).max(0.0)

@@ -60,6 +60,15 @@ impl ValidationResult {
             passed: error.abs() <= tolerance,
         }
     }
+
+    /// The same result judged against another `tolerance`.
+    pub fn with_tolerance(self, tolerance: f64) -> Self {
+        ValidationResult {
+            passed: self.error.abs() <= tolerance,
+            tolerance,
+            ..self
+        }
+    }
 }
 
 /// Linear interpolation in a time series sorted by time; `None` outside it.

@@ -525,6 +525,9 @@ pub enum ValidationSpec {
         /// Averaging window at the end of the run (s).
         #[serde(default = "default_window")]
         window: f64,
+        /// Largest relative difference from the reference that passes (default 0.05).
+        #[serde(default = "default_hydrostatic_tolerance")]
+        tolerance: f64,
     },
     /// Settling or surfacing groups: heavier groups must reach the bottom, lighter ones the
     /// free surface; their early acceleration is compared with `g |rho_g - rho_w| /
@@ -616,6 +619,10 @@ fn default_window() -> f64 {
 
 fn default_group_distance() -> f64 {
     0.03
+}
+
+fn default_hydrostatic_tolerance() -> f64 {
+    0.05
 }
 
 fn default_early_time() -> f64 {

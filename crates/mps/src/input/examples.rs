@@ -48,6 +48,16 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/elliptic_drop.toml"),
     ),
     (
+        "hydrostatic_3d",
+        "Still water in a 3D tank: bottom pressure against rho g (H - l0/2)",
+        include_str!("../../cases/hydrostatic_3d.toml"),
+    ),
+    (
+        "dam_break_3d",
+        "3D dam break (Koshizuka & Oka column between side walls) against Martin & Moyce",
+        include_str!("../../cases/dam_break_3d.toml"),
+    ),
+    (
         "bench_dam_break",
         "Benchmark: 1.0 x 0.6 m tank, l0 = 5 mm, fixed dt, 1000 steps, no output",
         include_str!("../../cases/bench_dam_break.toml"),

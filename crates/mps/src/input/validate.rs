@@ -177,9 +177,11 @@ impl Case {
                 depth,
                 reference,
                 window,
+                tolerance,
                 ..
             }) => {
                 c.positive("validation.depth", *depth)?;
+                c.positive("validation.tolerance", *tolerance)?;
                 if let Some(r) = reference {
                     finite("validation.reference", *r)?;
                 }

@@ -7,8 +7,8 @@ use crate::particles::{Column, Particles};
 use std::path::Path;
 
 /// Serialises particles as a VTU file: every field the registry marks for output, the
-/// positions as points. `time` (s) and the particle spacing `spacing` (m) go into the
-/// file's field data.
+/// positions as points. `time` (s), the particle spacing `spacing` (m) and the dimension go
+/// into the file's field data.
 pub fn vtu_bytes<const D: usize>(p: &Particles<D>, time: f64, spacing: f64) -> Vec<u8> {
     let n = p.len();
     let columns = p.columns();
@@ -22,7 +22,7 @@ pub fn vtu_bytes<const D: usize>(p: &Particles<D>, time: f64, spacing: f64) -> V
     };
     head.push_str("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<UnstructuredGrid>\n");
     head.push_str(&format!(
-        "<FieldData><DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">{time:.9}</DataArray><DataArray type=\"Float64\" Name=\"Spacing\" NumberOfTuples=\"1\" format=\"ascii\">{spacing:.9e}</DataArray></FieldData>\n"
+        "<FieldData><DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">{time:.9}</DataArray><DataArray type=\"Float64\" Name=\"Spacing\" NumberOfTuples=\"1\" format=\"ascii\">{spacing:.9e}</DataArray><DataArray type=\"Int32\" Name=\"Dimension\" NumberOfTuples=\"1\" format=\"ascii\">{D}</DataArray></FieldData>\n"
     ));
     head.push_str(&format!(
         "<Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n<PointData Scalars=\"pressure\" Vectors=\"velocity\">\n"

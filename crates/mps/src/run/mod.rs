@@ -311,10 +311,12 @@ fn validate<const D: usize>(
             reference,
             probe,
             window,
+            tolerance,
         }) => {
             let series = &rec.probe_series[probe_index(case, probe)];
             let exact = reference.unwrap_or(rho_w * g * depth);
-            hydrostatic(probe, series, *window, exact, reference.is_some())
+            let r = hydrostatic(probe, series, *window, exact, reference.is_some());
+            r.map(|r| r.with_tolerance(*tolerance))
         }
         Some(ValidationSpec::Groups { early_time, .. }) => {
             let densities: Vec<f64> = (0..rec.group_names.len())

@@ -102,6 +102,15 @@ pub struct Simulation<const D: usize> {
 impl<const D: usize> Simulation<D> {
     /// Builds the particles of `case` and prepares the run; `label` names the case in errors.
     pub fn new(case: Case, label: &str) -> Result<Self, CaseError> {
+        if case.dimension != D {
+            let msg = format!("a {D}D simulation cannot run this case");
+            return Err(CaseError::new(
+                label,
+                "dimension",
+                case.dimension.to_string(),
+                msg,
+            ));
+        }
         let particles = crate::input::setup::build_particles::<D>(&case, label)?;
         let scheme = case.scheme(label)?;
         let l0 = case.particles.spacing;
