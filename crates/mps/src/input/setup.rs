@@ -382,6 +382,53 @@ mod tests {
         Case::from_str_named(&text, "tank.toml", &[]).unwrap()
     }
 
+    /// A 3D cylinder of fluid along x, rotating about its own axis: the particles fill the
+    /// analytic volume pi R^2 L within a lattice cell per surface site, every velocity is
+    /// omega a x (x - c) exactly, and gravity defaults to -z.
+    #[test]
+    fn a_3d_cylinder_rotating_about_its_axis() {
+        let text = r#"
+name = "cyl"
+dimension = 3
+[domain]
+min = [0.0, 0.0, 0.0]
+max = [0.4, 0.2, 0.2]
+[particles]
+spacing = 0.01
+[time]
+end = 0.1
+[[phases]]
+name = "water"
+density = 1000.0
+[[fluid]]
+phase = "water"
+shape = { type = "cylinder", base = [0.05, 0.1, 0.1], axis = [0.3, 0.0, 0.0], radius = 0.08 }
+velocity = { type = "rotation", center = [0.0, 0.1, 0.1], omega = 2.0, axis = [3.0, 0.0, 0.0] }
+"#;
+        let c = Case::from_str_named(text, "cyl.toml", &[]).unwrap();
+        assert_eq!(c.physics.gravity, vec![0.0, 0.0, -9.81]);
+        let p = build_particles::<3>(&c, "cyl.toml").unwrap();
+        // The lattice sites ((k + 1/2) l0) inside the disc of radius 8 l0 about (10, 10) l0,
+        // counted here: 208 (pi 64 = 201), times the 30 sites along the axis.
+        let disc = (0..20)
+            .flat_map(|a| (0..20).map(move |b| (a as f64 + 0.5 - 10.0, b as f64 + 0.5 - 10.0)))
+            .filter(|(y, z)| y * y + z * z < 64.0)
+            .count();
+        assert_eq!(disc, 208);
+        assert_eq!(p.count(Kind::Fluid), disc * 30);
+        for i in (0..p.len()).filter(|&i| p.kind[i] == Kind::Fluid) {
+            let x = p.position[i];
+            let (y, z) = (x[1] - 0.1, x[2] - 0.1);
+            assert!(y * y + z * z < 0.08 * 0.08 && x[0] > 0.05 && x[0] < 0.35);
+            let want = Vector([0.0, -2.0 * z, 2.0 * y]);
+            assert!((p.velocity[i] - want).norm() < 1e-12, "{:?}", p.velocity[i]);
+        }
+        // An axis in 2D, or a zero axis, is refused naming the field.
+        let bad = text.replace("axis = [3.0, 0.0, 0.0]", "axis = [0.0, 0.0, 0.0]");
+        let e = Case::from_str_named(&bad, "cyl.toml", &[]).unwrap_err();
+        assert!(e.to_string().contains("velocity.axis"), "{e}");
+    }
+
     #[test]
     fn tank_gets_one_wall_layer_and_dummies() {
         let c = tank_case("");

@@ -77,9 +77,12 @@ pub fn shape_bounds(s: &ShapeSpec) -> (Vec<f64>, Vec<f64>) {
             center.iter().map(|c| c + radius).collect(),
         ),
         ShapeSpec::Cylinder { base, axis, radius } => {
-            // The box of both end discs (generous for a tilted axis).
-            let lo = (0..base.len()).map(|k| base[k].min(base[k] + axis[k]) - radius);
-            let hi = (0..base.len()).map(|k| base[k].max(base[k] + axis[k]) + radius);
+            // The box of both end discs: a disc of radius R normal to a reaches
+            // R sqrt(1 - a_k^2 / |a|^2) along axis k.
+            let a2: f64 = axis.iter().map(|c| c * c).sum();
+            let reach = |k: usize| radius * (1.0 - axis[k] * axis[k] / a2).max(0.0).sqrt();
+            let lo = (0..base.len()).map(|k| base[k].min(base[k] + axis[k]) - reach(k));
+            let hi = (0..base.len()).map(|k| base[k].max(base[k] + axis[k]) + reach(k));
             (lo.collect(), hi.collect())
         }
         ShapeSpec::Stl { mesh, .. } => match mesh {

@@ -133,99 +133,52 @@ mod tests {
         Scheme::preset(name).unwrap().gradient
     }
 
-    /// In 3D too: CMPS conserves force and all three torque components on a shaken lattice
-    /// with random pressures.
-    #[test]
-    fn cmps_conserves_linear_and_angular_momentum_in_3d() {
+    /// Total force, total torque (vector) and the sum of force magnitudes of `scheme`'s
+    /// pressure gradient over a shaken lattice (`n` per side, D dimensions) with random
+    /// pressures.
+    fn totals<const D: usize>(name: &str, n: usize) -> (Vector<D>, Vector<3>, f64) {
         let l0 = 0.01;
-        let (pos, _) = crate::numerics::operators::tests::lattice_d::<3>(7, l0, 0.4);
-        let n = pos.len();
-        let p: Vec<f64> = (0..n)
+        let (pos, _) = crate::numerics::operators::tests::lattice_d::<D>(n, l0, 0.4);
+        let count = pos.len();
+        let p: Vec<f64> = (0..count)
             .map(|i| 1000.0 * ((i as f64 * 0.37).sin() + 1.0))
             .collect();
-        let k = Kernels::new::<3>(l0, 2.1, 3.1);
-        let rho = vec![1000.0; n];
-        let cloud = Cloud::new(
-            pos.clone(),
-            vec![Vector::zero(); n],
-            rho.clone(),
-            0.0,
-            k.lap.re,
-        );
+        let k = Kernels::new::<D>(l0, 2.1, 3.1);
+        let rho = vec![1000.0; count];
+        let cloud = Cloud::new(pos.clone(), vec![Vector::zero(); count], rho, 0.0, k.lap.re);
         let f = cloud.view();
-        let s = scheme("CMPS-HS");
-        let carries = vec![true; n];
-        let ph: Vec<f64> = (0..n)
+        let carries = vec![true; count];
+        let ph: Vec<f64> = (0..count)
             .map(|i| p_hat(i, &f, &p, &carries, k.grad.re))
             .collect();
-        let (mut force, mut torque, mut scale) = (Vector::<3>::zero(), Vector::<3>::zero(), 0.0);
-        for i in 0..n {
-            let a = pressure_acceleration(i, &f, &p, &ph, &carries, &k, &s) * rho[i];
+        let s = scheme(name);
+        let (mut force, mut torque, mut scale) = (Vector::<D>::zero(), Vector::<3>::zero(), 0.0);
+        for i in 0..count {
+            let a = pressure_acceleration(i, &f, &p, &ph, &carries, &k, &s) * 1000.0;
             force += a;
             torque += Vector(pos[i].cross3(&a));
             scale += a.norm();
         }
-        assert!(scale > 0.0);
-        assert!(force.norm() < 1e-12 * scale, "force {force:?} vs {scale}");
-        assert!(torque.norm() < 1e-12 * scale, "torque {torque:?}");
+        (force, torque, scale)
     }
 
     /// CMPS pair terms are antisymmetric: the total force and torque vanish to round-off on a
-    /// random cloud with random pressures.
+    /// shaken lattice with random pressures, in 2D and 3D; the Taylor gradient (not
+    /// antisymmetric) leaves a net force on the same cloud.
     #[test]
     fn cmps_conserves_linear_and_angular_momentum() {
-        let l0 = 0.01;
-        let mut pos = Vec::new();
-        let mut p = Vec::new();
-        let mut seed = 99u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for a in 0..15 {
-            for b in 0..15 {
-                pos.push(Vector([
-                    (a as f64 + 0.4 * (rnd() - 0.5)) * l0,
-                    (b as f64 + 0.4 * (rnd() - 0.5)) * l0,
-                ]));
-                p.push(1000.0 * rnd());
-            }
-        }
-        let n = pos.len();
-        let k = Kernels::new::<2>(l0, 2.1, 3.1);
-        let rho = vec![1000.0; n];
-        let cloud = Cloud::new(
-            pos.clone(),
-            vec![Vector::zero(); n],
-            rho.clone(),
-            0.0,
-            k.lap.re,
-        );
-        let f = cloud.view();
-        let s = scheme("CMPS-HS");
-        let carries = vec![true; n];
-        let ph: Vec<f64> = (0..n)
-            .map(|i| p_hat(i, &f, &p, &carries, k.grad.re))
-            .collect();
-        let mut force = Vector::<2>::zero();
-        let mut torque = 0.0;
-        let mut scale = 0.0;
-        for i in 0..n {
-            let a = pressure_acceleration(i, &f, &p, &ph, &carries, &k, &s) * rho[i];
-            force += a;
-            torque += pos[i].cross_z(&a);
-            scale += a.norm();
-        }
+        let (force, torque, scale) = totals::<2>("CMPS-HS", 15);
+        assert!(scale > 0.0);
         assert!(force.norm() < 1e-12 * scale, "force {force:?} vs {scale}");
-        assert!(torque.abs() < 1e-12 * scale, "torque {torque}");
-        // The Taylor gradient is not antisymmetric: the same cloud gives a net force.
-        let t = scheme("MPS-HS-GC");
-        let mut f2 = Vector::<2>::zero();
-        for i in 0..n {
-            f2 += pressure_acceleration(i, &f, &p, &ph, &carries, &k, &t) * rho[i];
-        }
-        assert!(f2.norm() > 1e-6 * scale);
+        assert!(torque.norm() < 1e-12 * scale, "torque {torque:?}");
+        let (force, torque, scale) = totals::<3>("CMPS-HS", 7);
+        assert!(scale > 0.0);
+        assert!(
+            force.norm() < 1e-12 * scale,
+            "3D force {force:?} vs {scale}"
+        );
+        assert!(torque.norm() < 1e-12 * scale, "3D torque {torque:?}");
+        let (force, _, scale) = totals::<2>("MPS-HS-GC", 15);
+        assert!(force.norm() > 1e-6 * scale);
     }
 }

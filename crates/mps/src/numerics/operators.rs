@@ -132,6 +132,26 @@ pub(crate) mod tests {
         (p, (n / 2) * n + n / 2)
     }
 
+    /// The gradient-corrected gradient of `phi` at `c` (Khayyer & Gotoh's GC with the
+    /// pair-difference form), every neighbour counted.
+    fn corrected_gradient<const D: usize>(
+        c: usize,
+        p: &[Vector<D>],
+        phi: &[f64],
+        nl: &crate::particles::NeighborList,
+        k: &KernelConstants,
+    ) -> Vector<D> {
+        let cm = gradient_correction(c, p, nl, k, |_| true, 0.2);
+        let mut g = Vector::zero();
+        for &j in nl.of(c) {
+            let j = j as usize;
+            let r = p[j] - p[c];
+            let w = weight(r.norm(), k.re);
+            g += cm.mul_vec(&r) * ((phi[j] - phi[c]) * w / (r.norm2() * k.n0));
+        }
+        g
+    }
+
     /// A cubic lattice of `n^D` points, spacing `l0`, each coordinate shifted at random by
     /// up to `jitter` l0 / 2, and the index of the central point.
     pub(crate) fn lattice_d<const D: usize>(
@@ -181,15 +201,7 @@ pub(crate) mod tests {
         let nl = build_neighbor_list(&p, 3.1 * l0);
         let want = Vector([3.0, -2.0, 0.5]);
         let phi: Vec<f64> = p.iter().map(|x| want.dot(x)).collect();
-        let cm = gradient_correction(c, &p, &nl, &k, |_| true, 0.2);
-        let xi = p[c];
-        let mut g = Vector::zero();
-        for &j in nl.of(c) {
-            let j = j as usize;
-            let r = p[j] - xi;
-            let w = weight(r.norm(), k.re);
-            g += cm.mul_vec(&r) * ((phi[j] - phi[c]) * w / (r.norm2() * k.n0));
-        }
+        let g = corrected_gradient(c, &p, &phi, &nl, &k);
         assert!((g - want).norm() < 1e-9, "{g:?}");
         let raw = gradient(c, &p, &phi, &nl, &k);
         assert!((raw - want).norm() > 1e-3, "{raw:?}");
@@ -259,15 +271,7 @@ pub(crate) mod tests {
         let k = KernelConstants::on_lattice::<2>(2.1 * l0, l0);
         let nl = build_neighbor_list(&p, k.re);
         let phi: Vec<f64> = p.iter().map(|x| 3.0 * x[0] - 2.0 * x[1]).collect();
-        let cm = gradient_correction(c, &p, &nl, &k, |_| true, 0.2);
-        let xi = p[c];
-        let mut g = Vector::zero();
-        for &j in nl.of(c) {
-            let j = j as usize;
-            let r = p[j] - xi;
-            let w = weight(r.norm(), k.re);
-            g += cm.mul_vec(&r) * ((phi[j] - phi[c]) * w / (r.norm2() * k.n0));
-        }
+        let g = corrected_gradient(c, &p, &phi, &nl, &k);
         assert!((g - Vector([3.0, -2.0])).norm() < 1e-9, "{g:?}");
         // Without correction the perturbed-lattice gradient is off.
         let raw = gradient(c, &p, &phi, &nl, &k);
