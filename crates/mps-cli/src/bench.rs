@@ -100,6 +100,20 @@ fn measure(
     steps: u64,
     warmup: u64,
 ) -> Result<Row, Failure> {
+    match case.dimension {
+        3 => measure_in::<3>(case, label, threads, steps, warmup),
+        _ => measure_in::<2>(case, label, threads, steps, warmup),
+    }
+}
+
+/// [`measure`] in `D` dimensions.
+fn measure_in<const D: usize>(
+    case: &Case,
+    label: &str,
+    threads: usize,
+    steps: u64,
+    warmup: u64,
+) -> Result<Row, Failure> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -107,7 +121,7 @@ fn measure(
     let broke = |b: mps::Breakdown| bad(format!("{label}: the benchmark run broke down: {b}"));
     pool.install(|| -> Result<Row, Failure> {
         reset_peak_memory();
-        let mut sim = Simulation::<2>::new(case.clone(), label)?;
+        let mut sim = Simulation::<D>::new(case.clone(), label)?;
         sim.keep_system = true;
         for _ in 0..warmup {
             sim.step(f64::INFINITY).map_err(broke)?;
@@ -270,11 +284,11 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The case at a spacing giving about `target` fluid particles (2D: the count scales as
-/// `l0^-2`); a fixed time step scales with the spacing (constant Courant number).
+/// The case at a spacing giving about `target` fluid particles (the count scales as
+/// `l0^-d`); a fixed time step scales with the spacing (constant Courant number).
 fn scaled_case(case: &Case, fluid0: usize, target: f64) -> Case {
     let mut c = case.clone();
-    let f = (fluid0 as f64 / target).sqrt();
+    let f = (fluid0 as f64 / target).powf(1.0 / case.dimension as f64);
     c.particles.spacing *= f;
     if let Some(dt) = c.time.dt_fixed.as_mut() {
         *dt *= f;
@@ -285,12 +299,14 @@ fn scaled_case(case: &Case, fluid0: usize, target: f64) -> Case {
 }
 
 fn ladder(a: &BenchArgs, case: &Case, label: &str) -> CmdResult {
-    let fluid0 = Simulation::<2>::new(case.clone(), label)?
-        .particles
-        .kind
-        .iter()
-        .filter(|k| **k == Kind::Fluid)
-        .count();
+    let fluid0 = match case.dimension {
+        3 => Simulation::<3>::new(case.clone(), label)?
+            .particles
+            .count(Kind::Fluid),
+        _ => Simulation::<2>::new(case.clone(), label)?
+            .particles
+            .count(Kind::Fluid),
+    };
     let max_threads = a.threads.iter().copied().max().unwrap_or(1);
     let triad = triad_bandwidth(max_threads)?;
     let triad1 = triad_bandwidth(1)?;

@@ -85,9 +85,7 @@ pub fn cmd_compare(a: CompareArgs) -> CmdResult {
                         .build()
                         .map_err(|e| bad(format!("thread pool: {e}")))?;
                     pool.install(|| {
-                        let mut sim =
-                            mps::io::checkpoint::build_simulation::<2>(case.clone(), label)?;
-                        let summary = run(&mut sim, &dir, &mut Silent)?;
+                        let summary = run_in_dimension(case, label, &dir)?;
                         say_err!(
                             "  {scheme}: {}",
                             summary.breakdown.clone().unwrap_or_else(|| format!(
@@ -248,4 +246,25 @@ fn comparison_figure(
     let path = out.join("compare.png");
     fig.write_png(&path)?;
     Ok(Some(path))
+}
+
+/// Runs `case` (quietly, into `dir`) in its own dimension.
+fn run_in_dimension(
+    case: &mps::Case,
+    label: &str,
+    dir: &std::path::Path,
+) -> Result<mps::analysis::RunSummary, Failure> {
+    use mps::io::checkpoint::build_simulation;
+    Ok(match case.dimension {
+        3 => run(
+            &mut build_simulation::<3>(case.clone(), label)?,
+            dir,
+            &mut Silent,
+        )?,
+        _ => run(
+            &mut build_simulation::<2>(case.clone(), label)?,
+            dir,
+            &mut Silent,
+        )?,
+    })
 }

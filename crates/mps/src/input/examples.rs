@@ -58,6 +58,16 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/dam_break_3d.toml"),
     ),
     (
+        "settling_3d",
+        "Settling of heavier fluid spheres in water, 3D (seed paper 3.2.1 in a 0.05 m deep tank)",
+        include_str!("../../cases/settling_3d.toml"),
+    ),
+    (
+        "surfacing_3d",
+        "Surfacing of lighter fluid spheres in water, 3D (seed paper 3.2.2 in a 0.05 m deep tank)",
+        include_str!("../../cases/surfacing_3d.toml"),
+    ),
+    (
         "bench_dam_break",
         "Benchmark: 1.0 x 0.6 m tank, l0 = 5 mm, fixed dt, 1000 steps, no output",
         include_str!("../../cases/bench_dam_break.toml"),

@@ -322,7 +322,7 @@ fn validate<const D: usize>(
             let densities: Vec<f64> = (0..rec.group_names.len())
                 .map(|k| group_density(sim, k).unwrap_or(rho_w))
                 .collect();
-            early_acceleration(&rec.group_series, *early_time, &densities, rho_w, g)
+            early_acceleration(&rec.group_series, *early_time, &densities, (rho_w, g), D)
         }
         Some(ValidationSpec::RotatingDisc {
             center,
