@@ -630,3 +630,52 @@ fn a_wrong_stl_wall_exits_1_naming_the_file_and_the_fault() {
         );
     }
 }
+
+/// A 3D run renders as a slice and as a view, compares and reports like a 2D one; a slice
+/// on no axis is refused naming it.
+#[test]
+fn a_3d_run_renders_compares_and_reports() {
+    let dir = std::env::temp_dir().join(format!("mps_cli_3d_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let set = ["--set", "time.end=0.04", "--set", "output.interval=0.02"];
+    succeed(
+        mps()
+            .args([
+                "compare",
+                "--example",
+                "hydrostatic_3d",
+                "--schemes",
+                "MPS-HS-GC-DS",
+            ])
+            .args(set)
+            .arg("--out")
+            .arg(&dir),
+    );
+    assert!(dir.join("compare.png").is_file());
+    let run = dir.join("MPS-HS-GC-DS");
+    let out = succeed(
+        mps()
+            .args(["render", "--time", "0.04", "--slice", "x=0.045"])
+            .arg(&run),
+    );
+    let png = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    assert!(
+        png.ends_with(".png") && png.contains("slicex0.045"),
+        "{png}"
+    );
+    let out = succeed(
+        mps()
+            .args(["render", "--time", "0.04", "--view", "z"])
+            .arg(&run),
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("viewz"));
+    succeed(mps().arg("report").arg(&dir));
+    assert!(dir.join("report.html").is_file());
+    let bad = mps()
+        .args(["render", "--slice", "q=1"])
+        .arg(&run)
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("q=1"));
+}
