@@ -261,15 +261,21 @@ fn print_timing(s: &RunSummary) {
     }
 }
 
-/// Sets the number of threads of the global pool.
-fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+/// Runs `f` on a thread pool of `threads` workers (default: all cores). The run's thread is
+/// one of the workers, so each parallel loop of the step starts where it is called instead of
+/// being handed to the pool and waited for (docs/decisions.md, "Thread pool").
+fn in_pool<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> Result<T, Failure> + Send,
+) -> Result<T, Failure> {
+    let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(t) = threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(t)
-            .build_global()
-            .map_err(|e| bad(format!("--threads {t}: {e}")))?;
+        b = b.num_threads(t);
     }
-    Ok(())
+    let pool = b
+        .build()
+        .map_err(|e| bad(format!("--threads {threads:?}: {e}")))?;
+    pool.install(f)
 }
 
 /// Restores `sim` from the checkpoint `ck`; returns the output folder of the restarted run
@@ -326,7 +332,11 @@ fn print_results(s: &RunSummary, out: &Path) {
 }
 
 fn cmd_run(a: RunArgs) -> CmdResult {
-    set_threads(a.threads)?;
+    in_pool(a.threads, || run_in_pool(a))
+}
+
+/// `mps run` on the run's thread pool.
+fn run_in_pool(a: RunArgs) -> CmdResult {
     let (case, label) = load_case(&a.case)?;
     let out = a
         .out
