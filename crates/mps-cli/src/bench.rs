@@ -122,7 +122,6 @@ fn measure_in<const D: usize>(
     pool.install(|| -> Result<Row, Failure> {
         reset_peak_memory();
         let mut sim = Simulation::<D>::new(case.clone(), label)?;
-        sim.keep_system = true;
         for _ in 0..warmup {
             sim.step(f64::INFINITY).map_err(broke)?;
         }

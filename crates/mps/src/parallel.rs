@@ -5,8 +5,17 @@ use rayon::prelude::*;
 
 /// Concatenates `parts` into one vector, copying the parts in parallel into their slots.
 pub fn concat<T: Copy + Default + Send + Sync>(parts: &[Vec<T>]) -> Vec<T> {
+    let mut out = Vec::new();
+    concat_into(parts, &mut out);
+    out
+}
+
+/// [`concat`] into `out`, reusing its memory (a buffer kept from step to step takes no new
+/// pages once it has grown: docs/decisions.md, "Reused PPE buffers").
+pub fn concat_into<T: Copy + Default + Send + Sync>(parts: &[Vec<T>], out: &mut Vec<T>) {
     let total: usize = parts.iter().map(Vec::len).sum();
-    let mut out = vec![T::default(); total];
+    out.clear();
+    out.resize(total, T::default());
     let mut slots: Vec<&mut [T]> = Vec::with_capacity(parts.len());
     let mut rest = out.as_mut_slice();
     for p in parts {
@@ -18,20 +27,24 @@ pub fn concat<T: Copy + Default + Send + Sync>(parts: &[Vec<T>]) -> Vec<T> {
         .into_par_iter()
         .zip(parts.par_iter())
         .for_each(|(s, p)| s.copy_from_slice(p));
-    out
 }
 
 /// CSR row offsets (`0, l0, l0 + l1, ...`) from per-chunk row lengths.
 pub fn offsets(lengths: &[Vec<u32>]) -> Vec<u32> {
-    let n: usize = lengths.iter().map(Vec::len).sum();
-    let mut out = Vec::with_capacity(n + 1);
+    let mut out = Vec::new();
+    offsets_into(lengths, &mut out);
+    out
+}
+
+/// [`offsets`] into `out`, reusing its memory.
+pub fn offsets_into(lengths: &[Vec<u32>], out: &mut Vec<u32>) {
+    out.clear();
     let mut acc = 0u32;
     out.push(0);
     for l in lengths.iter().flatten() {
         acc += l;
         out.push(acc);
     }
-    out
 }
 
 #[cfg(test)]

@@ -307,7 +307,6 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
     use mps::linalg::{Amg, AmgParams};
 
     let mut s = sim("dam_break", &[("scheme.name", "MPS-HS-GC-DS")]);
-    s.keep_system = true;
     while s.time < 0.15 {
         s.step(f64::INFINITY).expect("dam break runs");
     }

@@ -136,9 +136,9 @@ impl<const D: usize> Rows<'_, D> {
     }
 }
 
-/// The rows of `particle_of`, assembled in parallel chunks and joined in order: the matrix
-/// and the right-hand side.
-fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32]) -> (CsrMatrix, Vec<f64>) {
+/// The rows of `particle_of`, assembled in parallel chunks and joined in order into the
+/// matrix and right-hand side of `sys` (their memory reused).
+fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32], sys: &mut PressureSystem) {
     let rows = particle_of.len();
     // Per chunk of rows: (row lengths, columns, values, right-hand sides).
     type Chunk = (Vec<u32>, Vec<u32>, Vec<f64>, Vec<f64>);
@@ -171,12 +171,10 @@ fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32]) -> (CsrMatr
         vals.push(v);
         rhs.push(r);
     }
-    let matrix = CsrMatrix {
-        row_ptr: crate::parallel::offsets(&lens),
-        col: crate::parallel::concat(&cols),
-        val: crate::parallel::concat(&vals),
-    };
-    (matrix, crate::parallel::concat(&rhs))
+    crate::parallel::offsets_into(&lens, &mut sys.matrix.row_ptr);
+    crate::parallel::concat_into(&cols, &mut sys.matrix.col);
+    crate::parallel::concat_into(&vals, &mut sys.matrix.val);
+    crate::parallel::concat_into(&rhs, &mut sys.rhs);
 }
 
 /// Assembles the PPE at the intermediate state; `previous` holds every particle's pressure
@@ -195,6 +193,21 @@ pub fn assemble<const D: usize>(
     dt: f64,
     reference: &PressureReference<D>,
 ) -> PressureSystem {
+    let mut sys = PressureSystem::default();
+    assemble_into(v, previous, k, s, (gravity, dt), reference, &mut sys);
+    sys
+}
+
+/// [`assemble`] into `sys`, reusing the memory of the system it held (the last step's).
+pub fn assemble_into<const D: usize>(
+    v: &View<D>,
+    previous: &[f64],
+    k: &Kernels,
+    s: &Scheme,
+    (gravity, dt): (Vector<D>, f64),
+    reference: &PressureReference<D>,
+    sys: &mut PressureSystem,
+) {
     let n = v.pos.len();
     let mut dirichlet: Vec<bool> = (0..n)
         .into_par_iter()
@@ -205,8 +218,11 @@ pub fn assemble<const D: usize>(
     if let Some(r) = level_particle {
         dirichlet[r] = true;
     }
-    let mut row_of = vec![NONE; n];
-    let mut particle_of = Vec::new();
+    let mut row_of = std::mem::take(&mut sys.row_of);
+    let mut particle_of = std::mem::take(&mut sys.particle_of);
+    row_of.clear();
+    row_of.resize(n, NONE);
+    particle_of.clear();
     for i in 0..n {
         if !dirichlet[i] {
             row_of[i] = particle_of.len() as u32;
@@ -223,7 +239,8 @@ pub fn assemble<const D: usize>(
         gravity,
         dt,
     };
-    let (matrix, mut rhs) = assemble_rows(&ctx, &particle_of);
+    assemble_rows(&ctx, &particle_of, sys);
+    let rhs = &mut sys.rhs;
     if let Some(r) = level_particle {
         // The singular system is solvable only if its sources sum to zero (the constant is
         // its null vector): remove their mean, the reference particle's own row included.
@@ -231,13 +248,9 @@ pub fn assemble<const D: usize>(
         let mean = (rhs.iter().sum::<f64>() + own) / (rhs.len() + 1) as f64;
         rhs.iter_mut().for_each(|b| *b -= mean);
     }
-    PressureSystem {
-        matrix,
-        rhs,
-        row_of,
-        particle_of,
-        level: level_particle.map(|r| (r as u32, reference.value)),
-    }
+    sys.row_of = row_of;
+    sys.particle_of = particle_of;
+    sys.level = level_particle.map(|r| (r as u32, reference.value));
 }
 
 #[cfg(test)]
@@ -322,7 +335,9 @@ mod tests {
             gravity: g,
             dt: 1e-3,
         };
-        let (a, b) = assemble_rows(&ctx, &all);
+        let mut full = PressureSystem::default();
+        assemble_rows(&ctx, &all, &mut full);
+        let (a, b) = (full.matrix, full.rhs);
         let mean = b.iter().sum::<f64>() / n as f64;
         assert!(
             mean.abs() > 1e-3,

@@ -85,9 +85,7 @@ pub struct Simulation<const D: usize> {
     pub timers: Timers,
     /// Report of the last step.
     pub last: StepReport,
-    /// Keep each step's assembled PPE in `last_system` (for benchmarks and solver tests).
-    pub keep_system: bool,
-    /// The PPE of the last step, when `keep_system` is set.
+    /// The PPE of the last step (the next step assembles into its memory).
     pub last_system: Option<PressureSystem>,
     /// The pressure solver (its choice, kept set-up and fall-back count).
     pub solver: PressureSolver,
@@ -138,7 +136,6 @@ impl<const D: usize> Simulation<D> {
             max_speed_bound,
             timers: Timers::default(),
             last: StepReport::default(),
-            keep_system: false,
             last_system: None,
             neighbors: NeighborList::default(),
             skin: SKIN * l0,

@@ -7,7 +7,7 @@ use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::operators::{laplacian_vector, number_density};
-use crate::numerics::ppe::{assemble, PressureReference, PressureSystem};
+use crate::numerics::ppe::{assemble_into, PressureReference, PressureSystem};
 use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
@@ -176,26 +176,28 @@ impl<const D: usize> Simulation<D> {
         })
     }
 
-    /// Stage 4: the PPE at the intermediate state.
+    /// Stage 4: the PPE at the intermediate state, in the memory of the last step's system.
     pub(super) fn assemble(
-        &self,
+        &mut self,
         pred: &Predicted<D>,
         surf: &DensitySurface,
         density: &Option<Vec<f64>>,
         dt: f64,
     ) -> PressureSystem {
+        let mut sys = self.last_system.take().unwrap_or_default();
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
         let previous = &self.particles.pressure;
         let reference = self.pressure_reference();
-        assemble(
+        assemble_into(
             &v,
             previous,
             &self.kernels,
             &self.scheme,
-            self.gravity,
-            dt,
+            (self.gravity, dt),
             &reference,
-        )
+            &mut sys,
+        );
+        sys
     }
 
     /// Stage 4b: solves the PPE (warm start from the last pressures) and returns every
@@ -248,8 +250,9 @@ impl<const D: usize> Simulation<D> {
                 }
             })
             .collect();
-        // The PPE is done with: keep it when asked, free it otherwise (lower peak memory).
-        self.last_system = self.keep_system.then_some(sys);
+        // Kept: the next step assembles into its memory (docs/decisions.md, "Reused PPE
+        // buffers"), and benchmarks read it.
+        self.last_system = Some(sys);
         Ok(pressure)
     }
 
