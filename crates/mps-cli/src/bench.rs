@@ -3,6 +3,7 @@
 //! resolutions with PPE iterations, peak memory and the SpMV and step costs stated against
 //! the machine's measured memory bandwidth (a triad loop).
 
+use crate::baseline::{ratios, Table};
 use crate::failure::{bad, io_error, CmdResult, Failure};
 use crate::{load_case, CaseArgs};
 use clap::Args;
@@ -37,6 +38,9 @@ pub struct BenchArgs {
     /// With --ladder: write charts of the ladder here (SVG, logarithmic particle axis).
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// A stored `--csv` of the same command: print every figure against it as new / old.
+    #[arg(long)]
+    baseline: Option<PathBuf>,
 }
 
 struct Row {
@@ -224,8 +228,9 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
     if a.ladder.iter().any(|&n| !(100.0..=1e9).contains(&n)) {
         return Err(bad("--ladder: fluid particle counts from 100 to 1e9"));
     }
+    let baseline = a.baseline.as_deref().map(Table::read).transpose()?;
     if !a.ladder.is_empty() {
-        return ladder(&a, &case, &label);
+        return ladder(&a, &case, &label, baseline.as_ref());
     }
     let steps = a.steps.or(case.time.max_steps).unwrap_or(200);
     let mut rows = Vec::new();
@@ -277,10 +282,23 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
             r.threads, r.particles, r.steps, r.mean_iterations
         ));
     }
+    finish(&a, &csv, baseline.as_ref())?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Writes the table where `--csv` says, and prints it against the baseline if one was given.
+fn finish(a: &BenchArgs, csv: &str, baseline: Option<&Table>) -> Result<(), Failure> {
     if let Some(p) = &a.csv {
         mps::io::write_atomic(p, csv.as_bytes())?;
+        say!("wrote {}", p.display());
     }
-    Ok(ExitCode::SUCCESS)
+    if let (Some(old), Some(path)) = (baseline, &a.baseline) {
+        say!("against {} (new / old):", path.display());
+        for line in ratios(&Table::parse(csv, "this run")?, old) {
+            say!("  {line}");
+        }
+    }
+    Ok(())
 }
 
 /// The case at a spacing giving about `target` fluid particles (the count scales as
@@ -297,7 +315,7 @@ fn scaled_case(case: &Case, fluid0: usize, target: f64) -> Case {
     c
 }
 
-fn ladder(a: &BenchArgs, case: &Case, label: &str) -> CmdResult {
+fn ladder(a: &BenchArgs, case: &Case, label: &str, baseline: Option<&Table>) -> CmdResult {
     let fluid0 = match case.dimension {
         3 => Simulation::<3>::new(case.clone(), label)?
             .particles
@@ -362,10 +380,7 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str) -> CmdResult {
             rows.push(r);
         }
     }
-    if let Some(p) = &a.csv {
-        mps::io::write_atomic(p, csv.as_bytes())?;
-        say!("wrote {}", p.display());
-    }
+    finish(a, &csv, baseline)?;
     if let Some(dir) = &a.plot {
         ladder_charts(a, &rows, dir)?;
     }

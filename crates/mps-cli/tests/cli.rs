@@ -82,6 +82,7 @@ fn missing_file_is_a_clear_error() {
         &["run", "--example", "dam_break", "--threads", "0"][..],
         &["run", "--bogus"][..],
         &["bench", "--ladder", "0"][..],
+        &["bench", "--baseline", "no/such/baseline.csv"][..],
     ] {
         let out = mps().args(args).output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
@@ -678,4 +679,38 @@ fn a_3d_run_renders_compares_and_reports() {
         .unwrap();
     assert_eq!(bad.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("q=1"));
+}
+
+/// `mps bench --baseline` prints each figure of a row against the stored row of the same
+/// thread and particle count as new / old.
+#[test]
+fn bench_against_a_baseline_prints_ratios() {
+    let dir = std::env::temp_dir().join(format!("mps_cli_bench_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("base.csv");
+    let small = [
+        "bench",
+        "--steps",
+        "3",
+        "--threads",
+        "1",
+        "--set",
+        "particles.spacing=0.02",
+    ];
+    succeed(mps().args(small).arg("--csv").arg(&csv));
+    let out = mps()
+        .args(small)
+        .arg("--baseline")
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        s.contains("(new / old)")
+            && s.contains("ppe_iterations 1.00x")
+            && s.contains("ms_per_step"),
+        "{s}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -207,6 +207,11 @@ macro_rules! particle_fields {
                 )*
             }
 
+            /// Makes `self` a copy of `other`, reusing the memory of `self`'s arrays.
+            pub fn copy_from(&mut self, other: &Self) {
+                $( self.$name.clone_from(&other.$name); )*
+            }
+
             /// The first field whose length differs from the particle count, if any.
             pub fn inconsistent_field(&self) -> Option<&'static str> {
                 let n = self.len();

@@ -92,6 +92,8 @@ pub struct Simulation<const D: usize> {
     /// Fluid particles removed so far after leaving the domain (`domain.outflow`).
     pub outflow_removed: u64,
     neighbors: NeighborList,
+    /// The particles at the start of the step (restored on breakdown; its memory reused).
+    backup: Particles<D>,
     skin: f64,
     /// The last PPE had no Dirichlet row (a closed domain, its level from the reference).
     closed: bool,
@@ -138,6 +140,7 @@ impl<const D: usize> Simulation<D> {
             last: StepReport::default(),
             last_system: None,
             neighbors: NeighborList::default(),
+            backup: Particles::default(),
             skin: SKIN * l0,
             outflow_removed: 0,
             closed: false,
@@ -155,7 +158,7 @@ impl<const D: usize> Simulation<D> {
     /// Advances one step, stopping at `until` (s) if it comes first. On breakdown the
     /// particles are restored to the last good state and the reason is returned.
     pub fn step(&mut self, until: f64) -> Result<StepReport, Breakdown> {
-        let backup = self.particles.clone();
+        self.backup.copy_from(&self.particles);
         match self.advance(until) {
             Ok(r) => {
                 self.last = r;
@@ -164,7 +167,7 @@ impl<const D: usize> Simulation<D> {
                 Ok(r)
             }
             Err(f) => {
-                self.particles = backup;
+                std::mem::swap(&mut self.particles, &mut self.backup);
                 Err(Breakdown {
                     time: self.time,
                     step: self.step_count + 1,
