@@ -30,32 +30,23 @@ impl Ic0 {
             row_ptr.push(col.len() as u32);
         }
         let mut l = CsrMatrix { row_ptr, col, val };
+        // Row i's entries scattered by column (zero off its pattern), so that each entry's
+        // sum over row k is a gather without a search (docs/decisions.md, "IC(0) set-up").
+        let mut w = vec![0.0; n];
         for i in 0..n {
             let (start, end) = (l.row_ptr[i] as usize, l.row_ptr[i + 1] as usize);
             for p in start..end {
                 let k = l.col[p] as usize;
-                // s = sum_{m < k} L_im L_km over the common pattern.
+                // s = sum_{m < k} L_im L_km: row k's entries left of its diagonal.
                 let (ks, ke) = (l.row_ptr[k] as usize, l.row_ptr[k + 1] as usize);
                 let mut s = 0.0;
-                let (mut a1, mut b1) = (start, ks);
-                while a1 < p && b1 < ke {
-                    let (ca, cb) = (l.col[a1], l.col[b1]);
-                    if ca as usize >= k || cb as usize >= k {
-                        break;
-                    }
-                    match ca.cmp(&cb) {
-                        std::cmp::Ordering::Less => a1 += 1,
-                        std::cmp::Ordering::Greater => b1 += 1,
-                        std::cmp::Ordering::Equal => {
-                            s += l.val[a1] * l.val[b1];
-                            a1 += 1;
-                            b1 += 1;
-                        }
-                    }
+                for q in ks..ke - 1 {
+                    s += w[l.col[q] as usize] * l.val[q];
                 }
                 if k < i {
                     let lkk = l.val[ke - 1];
                     l.val[p] = (l.val[p] - s) / lkk;
+                    w[k] = l.val[p];
                 } else {
                     let d = l.val[p] - s;
                     if d <= 0.0 || !d.is_finite() {
@@ -63,6 +54,9 @@ impl Ic0 {
                     }
                     l.val[p] = d.sqrt();
                 }
+            }
+            for p in start..end {
+                w[l.col[p] as usize] = 0.0;
             }
         }
         Some(Ic0 { l })
