@@ -256,7 +256,7 @@ fn ds_without_active_pairs_is_bit_identical_to_gc() {
 #[test]
 fn restart_from_checkpoint_is_bit_identical() {
     let mut bytes = Vec::new();
-    for solver in ["ic0-cg", "amg-cg"] {
+    for solver in ["ic0-cg", "mic0-cg", "amg-cg"] {
         let set = [("particles.spacing", "0.0073"), ("solver.kind", solver)];
         let mut straight = sim("dam_break", &set);
         for k in 0..40 {
@@ -330,11 +330,16 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
 
     let jacobi = Jacobi::new(a);
     let ic0 = Ic0::new(a).expect("IC(0) exists for an M-matrix");
+    let mic0 = Ic0::modified(a, mps::linalg::MIC_OMEGA).expect("MIC(0) builds");
     let amg = Amg::new(a, AmgParams::default()).expect("hierarchy builds");
     assert!(amg.num_levels() >= 2);
     let mut results = Vec::new();
-    let preconditioners: [(&str, &dyn Precondition); 3] =
-        [("cg", &Identity), ("jacobi-cg", &jacobi), ("ic0-cg", &ic0)];
+    let preconditioners: [(&str, &dyn Precondition); 4] = [
+        ("cg", &Identity),
+        ("jacobi-cg", &jacobi),
+        ("ic0-cg", &ic0),
+        ("mic0-cg", &mic0),
+    ];
     for (name, pre) in preconditioners {
         let mut x = vec![0.0; n];
         let st = pcg(a, &sys.rhs, &mut x, pre, 1e-10, 20_000).expect(name);
@@ -362,7 +367,7 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
     );
     let its = |k: &str| results.iter().find(|r| r.0 == k).unwrap().2;
     assert!(
-        its("amg-cg") < its("ic0-cg"),
+        its("amg-cg") < its("ic0-cg") && its("mic0-cg") < its("ic0-cg"),
         "{results:?}",
         results = results.iter().map(|r| (r.0, r.2)).collect::<Vec<_>>()
     );

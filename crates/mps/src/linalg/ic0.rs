@@ -15,21 +15,7 @@ impl Ic0 {
     /// Factors `a`; `None` if a pivot is not positive.
     pub fn new(a: &CsrMatrix) -> Option<Ic0> {
         let n = a.n();
-        let mut row_ptr = Vec::with_capacity(n + 1);
-        let mut col = Vec::with_capacity(a.nnz() / 2 + n);
-        let mut val = Vec::with_capacity(a.nnz() / 2 + n);
-        row_ptr.push(0u32);
-        for i in 0..n {
-            let (c, v) = a.row(i);
-            for (&j, &x) in c.iter().zip(v) {
-                if (j as usize) <= i {
-                    col.push(j);
-                    val.push(x);
-                }
-            }
-            row_ptr.push(col.len() as u32);
-        }
-        let mut l = CsrMatrix { row_ptr, col, val };
+        let mut l = lower_triangle(a);
         // Row i's entries scattered by column (zero off its pattern), so that each entry's
         // sum over row k is a gather without a search (docs/decisions.md, "IC(0) set-up").
         let mut w = vec![0.0; n];
@@ -62,6 +48,70 @@ impl Ic0 {
         Some(Ic0 { l })
     }
 
+    /// Modified IC(0) (Gustafsson 1978), relaxed by `omega` in [0, 1]: fill that IC(0) drops
+    /// is moved, times `omega`, to the diagonals of its row and column, so that `L L^T` keeps
+    /// the row sums of `a` (at `omega = 1`). Right-looking; `None` if a pivot is not positive.
+    pub fn modified(a: &CsrMatrix, omega: f64) -> Option<Ic0> {
+        let n = a.n();
+        let mut l = lower_triangle(a);
+        // Column k of L below its diagonal: (row, position in `l`), rows ascending.
+        let mut start = vec![0u32; n + 1];
+        for i in 0..n {
+            let (c, _) = l.row(i);
+            for &k in &c[..c.len() - 1] {
+                start[k as usize + 1] += 1;
+            }
+        }
+        for k in 0..n {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start.clone();
+        let mut below = vec![(0u32, 0u32); start[n] as usize];
+        for i in 0..n {
+            let s = l.row_ptr[i] as usize;
+            let (c, _) = l.row(i);
+            for (q, &k) in c[..c.len() - 1].iter().enumerate() {
+                below[fill[k as usize] as usize] = (i as u32, (s + q) as u32);
+                fill[k as usize] += 1;
+            }
+        }
+        let diag = |l: &CsrMatrix, i: usize| l.row_ptr[i + 1] as usize - 1;
+        for k in 0..n {
+            let dk = diag(&l, k);
+            let d = l.val[dk];
+            if d <= 0.0 || !d.is_finite() {
+                return None;
+            }
+            let lkk = d.sqrt();
+            l.val[dk] = lkk;
+            let col = &below[start[k] as usize..start[k + 1] as usize];
+            for &(_, p) in col {
+                l.val[p as usize] /= lkk;
+            }
+            for (x, &(i, pi)) in col.iter().enumerate() {
+                let (i, lik) = (i as usize, l.val[pi as usize]);
+                let di = diag(&l, i);
+                l.val[di] -= lik * lik;
+                // Rows j < i of column k, ascending, against row i's columns: one merge walk.
+                let mut q = l.row_ptr[i] as usize;
+                for &(j, pj) in &col[..x] {
+                    let prod = lik * l.val[pj as usize];
+                    while q < di && l.col[q] < j {
+                        q += 1;
+                    }
+                    if q < di && l.col[q] == j {
+                        l.val[q] -= prod;
+                    } else {
+                        l.val[di] -= omega * prod;
+                        let dj = diag(&l, j as usize);
+                        l.val[dj] -= omega * prod;
+                    }
+                }
+            }
+        }
+        Some(Ic0 { l })
+    }
+
     /// `z = (L L^T)^-1 r`.
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
         let n = r.len();
@@ -85,8 +135,101 @@ impl Ic0 {
     }
 }
 
+/// The lower triangle of `a`, diagonal included (last in each row).
+fn lower_triangle(a: &CsrMatrix) -> CsrMatrix {
+    let n = a.n();
+    let mut row_ptr = Vec::with_capacity(n + 1);
+    let mut col = Vec::with_capacity(a.nnz() / 2 + n);
+    let mut val = Vec::with_capacity(a.nnz() / 2 + n);
+    row_ptr.push(0u32);
+    for i in 0..n {
+        let (c, v) = a.row(i);
+        for (&j, &x) in c.iter().zip(v) {
+            if (j as usize) <= i {
+                col.push(j);
+                val.push(x);
+            }
+        }
+        row_ptr.push(col.len() as u32);
+    }
+    CsrMatrix { row_ptr, col, val }
+}
+
 impl Precondition for Ic0 {
     fn apply(&self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
         Ic0::apply(self, r, z)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::linalg::pcg::pcg;
+
+    /// The 5-point Laplacian of an `m x m` grid, Dirichlet outside.
+    fn laplacian(m: usize) -> CsrMatrix {
+        let st = [
+            (0i64, -1i64, -1.0),
+            (-1, 0, -1.0),
+            (0, 0, 4.0),
+            (1, 0, -1.0),
+            (0, 1, -1.0),
+        ];
+        CsrMatrix::from_rows((0..m * m).map(|i| {
+            let (x, y) = ((i % m) as i64, (i / m) as i64);
+            let inside = |v: i64| (0..m as i64).contains(&v);
+            st.iter()
+                .filter(|(dx, dy, _)| inside(x + dx) && inside(y + dy))
+                .map(|&(dx, dy, v)| (((y + dy) * m as i64 + x + dx) as u32, v))
+                .collect()
+        }))
+    }
+
+    /// `(L L^T) 1`.
+    fn row_sums(f: &Ic0) -> Vec<f64> {
+        let l = &f.l;
+        let n = l.n();
+        let mut y = vec![0.0; n];
+        for i in 0..n {
+            let (c, v) = l.row(i);
+            for (&j, &x) in c.iter().zip(v) {
+                y[j as usize] += x;
+            }
+        }
+        (0..n)
+            .map(|i| {
+                let (c, v) = l.row(i);
+                c.iter().zip(v).map(|(&j, &x)| x * y[j as usize]).sum()
+            })
+            .collect()
+    }
+
+    /// MIC(0) at omega = 1 keeps the row sums of the matrix (what makes it "modified"); at
+    /// omega = 0 it is IC(0); relaxed (omega = 0.97) it needs fewer CG iterations than IC(0)
+    /// on a Laplacian.
+    #[test]
+    fn modified_ic0_keeps_row_sums_and_converges_faster() {
+        let a = laplacian(40);
+        let n = a.n();
+        let ones = vec![1.0; n];
+        let mut want = vec![0.0; n];
+        a.spmv(&ones, &mut want);
+        let mic = Ic0::modified(&a, 1.0).expect("MIC(0) of a Laplacian");
+        for (got, want) in row_sums(&mic).iter().zip(&want) {
+            assert!((got - want).abs() < 1e-12, "{got} vs {want}");
+        }
+        let ic = Ic0::new(&a).unwrap();
+        let plain = Ic0::modified(&a, 0.0).unwrap();
+        for (p, q) in plain.l.val.iter().zip(&ic.l.val) {
+            assert!((p - q).abs() < 1e-12 * q.abs().max(1.0), "{p} vs {q}");
+        }
+        let b: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+        let its = |f: &Ic0| {
+            let mut x = vec![0.0; n];
+            pcg(&a, &b, &mut x, f, 1e-8, 1000).unwrap().iterations
+        };
+        let relaxed = Ic0::modified(&a, 0.97).unwrap();
+        let (i_ic, i_mic) = (its(&ic), its(&relaxed));
+        assert!(i_mic * 4 < i_ic * 3, "MIC {i_mic} vs IC {i_ic} iterations");
     }
 }

@@ -3,7 +3,9 @@
 //! fails falls back to Jacobi; every such step is reported, never silent).
 
 use crate::input::case::SolverSpec;
-use crate::linalg::{pcg, Amg, AmgParams, Ic0, Identity, Jacobi, NotConverged, SolveStats};
+use crate::linalg::{
+    pcg, Amg, AmgParams, Ic0, Identity, Jacobi, NotConverged, SolveStats, MIC_OMEGA,
+};
 use crate::linalg::{Precondition, SolverKind};
 use crate::numerics::ppe::PressureSystem;
 use std::time::{Duration, Instant};
@@ -98,6 +100,13 @@ impl PressureSolver {
                 report.setup = t0.elapsed();
                 timed_pcg(sys, x, &f, tol, max_iter)
             }),
+            // Modified IC(0); where a relaxed pivot is not positive, plain IC(0).
+            SolverKind::Mic0Cg => Ic0::modified(&sys.matrix, MIC_OMEGA)
+                .or_else(|| Ic0::new(&sys.matrix))
+                .map(|f| {
+                    report.setup = t0.elapsed();
+                    timed_pcg(sys, x, &f, tol, max_iter)
+                }),
             SolverKind::Cg => {
                 report.setup = t0.elapsed();
                 Some(timed_pcg(sys, x, &Identity, tol, max_iter))
