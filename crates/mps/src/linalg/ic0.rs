@@ -165,25 +165,7 @@ impl Precondition for Ic0 {
 mod tests {
     use super::*;
     use crate::linalg::pcg::pcg;
-
-    /// The 5-point Laplacian of an `m x m` grid, Dirichlet outside.
-    fn laplacian(m: usize) -> CsrMatrix {
-        let st = [
-            (0i64, -1i64, -1.0),
-            (-1, 0, -1.0),
-            (0, 0, 4.0),
-            (1, 0, -1.0),
-            (0, 1, -1.0),
-        ];
-        CsrMatrix::from_rows((0..m * m).map(|i| {
-            let (x, y) = ((i % m) as i64, (i / m) as i64);
-            let inside = |v: i64| (0..m as i64).contains(&v);
-            st.iter()
-                .filter(|(dx, dy, _)| inside(x + dx) && inside(y + dy))
-                .map(|&(dx, dy, v)| (((y + dy) * m as i64 + x + dx) as u32, v))
-                .collect()
-        }))
-    }
+    use crate::linalg::tests::laplace_2d as laplacian;
 
     /// `(L L^T) 1`.
     fn row_sums(f: &Ic0) -> Vec<f64> {

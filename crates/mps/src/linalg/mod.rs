@@ -53,3 +53,29 @@ impl SolverKind {
         }
     }
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::CsrMatrix;
+
+    /// Five-point Laplacian on an `m x m` grid with Dirichlet boundaries.
+    pub(crate) fn laplace_2d(m: usize) -> CsrMatrix {
+        let stencil = [
+            (0, -1, -1.0),
+            (-1, 0, -1.0),
+            (0, 0, 4.0),
+            (1, 0, -1.0),
+            (0, 1, -1.0),
+        ];
+        CsrMatrix::from_rows((0..m * m).map(|i| {
+            let (x, y) = ((i % m) as i64, (i / m) as i64);
+            stencil
+                .iter()
+                .filter(|(dx, dy, _)| {
+                    (0..m as i64).contains(&(x + dx)) && (0..m as i64).contains(&(y + dy))
+                })
+                .map(|&(dx, dy, v)| (((y + dy) * m as i64 + x + dx) as u32, v))
+                .collect()
+        }))
+    }
+}
