@@ -464,3 +464,42 @@ fn ds_threshold_follows_the_courant_number() {
         0.95
     );
 }
+
+/// The mean-surface Dirichlet values read the last step's pressures: a run with them is the
+/// same on 1 and 2 threads and after a restart from a checkpoint, bit for bit (and not the
+/// run with `p = 0` on the surface).
+#[test]
+fn mean_surface_pressures_are_thread_and_restart_identical() {
+    let steps = |option: &str, threads: usize, restart_at: Option<usize>| {
+        let set = [
+            ("scheme.surface_pressure", option),
+            ("particles.spacing", "0.04"),
+        ];
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut s = sim("square_patch", &set);
+            for k in 0..30 {
+                if Some(k) == restart_at {
+                    let bytes = mps::io::checkpoint::checkpoint_bytes(&s);
+                    s = sim("square_patch", &set);
+                    mps::io::checkpoint::restore(&mut s, &bytes, Path::new("ck")).unwrap();
+                }
+                s.step(f64::INFINITY).unwrap();
+            }
+            (s.particles.position.clone(), s.particles.pressure.clone())
+        })
+    };
+    let one = steps("mean-surface", 1, None);
+    assert!(
+        one == steps("mean-surface", 2, None),
+        "1 and 2 threads differ"
+    );
+    assert!(
+        one == steps("mean-surface", 1, Some(15)),
+        "the restarted run differs"
+    );
+    assert!(one != steps("zero", 1, None), "the option changed nothing");
+}

@@ -9,6 +9,7 @@ use crate::numerics::scheme::{Preset, Scheme, PRESETS};
 use crate::numerics::source::{DriftControl, HsNormalization, SourceModel};
 use crate::numerics::stabilization::{DsWeighting, DynamicStabilization};
 use crate::numerics::surface::SurfaceDetector;
+use crate::numerics::surface_pressure::SurfacePressure;
 use crate::numerics::walls::WallPressure;
 use serde::{Deserialize, Serialize};
 
@@ -73,6 +74,9 @@ pub struct SchemeSpec {
     pub surface_beta: Option<f64>,
     /// Shorthand for `surface.count_ratio` of the number-density detector.
     pub surface_count_ratio: Option<f64>,
+    /// Where the free surface's `p = 0` is placed: `zero` (every surface particle, the
+    /// paper's) or `mean-surface` (docs/decisions.md, "Surface pressure at the mean surface").
+    pub surface_pressure: Option<SurfacePressure>,
     /// Wall particles take the free-surface test (a side open to the air: Dirichlet `p = 0`).
     pub wall_surface_test: Option<bool>,
     /// Count the missing part of a PPE row's neighbourhood as air at `p = 0` (Dirichlet)
@@ -288,6 +292,7 @@ impl SchemeSpec {
             s.sound_speed = Some(check(label, "sound_speed", c, ok, "(0, inf)")?);
         }
         s.surface = self.surface(label)?;
+        s.surface_pressure = self.surface_pressure.unwrap_or(s.surface_pressure);
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;
         let g = &mut s.gradient;

@@ -1,5 +1,6 @@
 //! Numerics: the MPS kernel, the one pair loop, the operators, and every model a scheme is
-//! made of (gradient models, PPE source and assembly, free-surface detectors, walls, density
+//! made of (gradient models, PPE source and assembly, free-surface detectors and
+//! the surface's Dirichlet value, walls, density
 //! averages, collisions, Dynamic Stabilization), with the paper's presets as data.
 //!
 //! Each file implements one model and cites its equation. May use `particles` and `linalg`
@@ -17,6 +18,7 @@ pub mod scheme;
 pub mod source;
 pub mod stabilization;
 pub mod surface;
+pub mod surface_pressure;
 pub mod walls;
 
 pub use kernel::{weight, KernelConstants, Kernels};

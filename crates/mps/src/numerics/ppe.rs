@@ -4,7 +4,8 @@
 //! Row `i` reads `sum_j c_ij (p_i - p_j) + (kappa/dt^2) p_i = b_i` with
 //! `c_ij = (2d/(lambda n0)) w(r_ij) / rho_ij` (re_lap), i.e. `-(1/rho) lap p = b`, `b` from
 //! [`super::source`]. Unknowns: fluid and wall particles; free-surface fluid and dry walls are
-//! Dirichlet `p = 0`. Dummy particles are left out (a zero-gradient wall), except with the
+//! Dirichlet, at `p = 0` or, for free-surface fluid with `surface_pressure = "mean-surface"`,
+//! at the value of [`super::surface_pressure`] (a known term `c p_j` on the neighbours' rows). Dummy particles are left out (a zero-gradient wall), except with the
 //! study option `wall_pressure = "hydrostatic"`, where each dummy neighbour contributes the
 //! known hydrostatic difference `p_j - p_i = rho g . (r_j - r_i)`; the matrix stays symmetric
 //! either way. Why zero-gradient is the default: docs/decisions.md, "Wall pressure".
@@ -16,6 +17,7 @@
 use super::kernel::Kernels;
 use super::scheme::Scheme;
 use super::source::source;
+use super::surface_pressure::{dirichlet_values, SurfacePressure};
 use super::walls::WallPressure;
 use crate::linalg::CsrMatrix;
 use crate::particles::{Kind, Vector, View, NONE};
@@ -38,6 +40,9 @@ pub struct PressureSystem {
     /// In a closed domain (no Dirichlet row): the reference particle, held out of the
     /// unknowns, and its pressure (Pa), which is added to every solved pressure.
     pub level: Option<(u32, f64)>,
+    /// Dirichlet value of every particle (Pa): 0 but for free-surface fluid particles with
+    /// `surface_pressure = "mean-surface"`; empty when all are 0.
+    pub dirichlet_value: Vec<f64>,
 }
 
 /// Where the pressure level of a closed domain is fixed: the fluid particle nearest to
@@ -88,6 +93,8 @@ struct Rows<'a, const D: usize> {
     s: &'a Scheme,
     gravity: Vector<D>,
     dt: f64,
+    /// Dirichlet values (Pa), empty when all are 0.
+    dirichlet: &'a [f64],
 }
 
 impl<const D: usize> Rows<'_, D> {
@@ -109,6 +116,9 @@ impl<const D: usize> Rows<'_, D> {
                     diag += c;
                     if self.row_of[q.j] != NONE {
                         entries.push((self.row_of[q.j], -c));
+                    } else if let Some(p_j) = self.dirichlet.get(q.j) {
+                        // A known neighbour: -c p_j moves to the right-hand side.
+                        bi += c * p_j;
                     }
                 }
                 Kind::Dummy => {
@@ -229,7 +239,13 @@ pub fn assemble_into<const D: usize>(
             particle_of.push(i as u32);
         }
     }
+    let mut dirichlet = std::mem::take(&mut sys.dirichlet_value);
+    dirichlet.clear();
+    if s.surface_pressure == SurfacePressure::MeanSurface && !closed {
+        dirichlet = dirichlet_values(v, previous, k);
+    }
     let ctx = Rows {
+        dirichlet: &dirichlet,
         v,
         previous,
         ghosts: s.air_ghosts && !closed,
@@ -251,6 +267,7 @@ pub fn assemble_into<const D: usize>(
     sys.row_of = row_of;
     sys.particle_of = particle_of;
     sys.level = level_particle.map(|r| (r as u32, reference.value));
+    sys.dirichlet_value = dirichlet;
 }
 
 #[cfg(test)]
@@ -334,6 +351,7 @@ mod tests {
             s: &s,
             gravity: g,
             dt: 1e-3,
+            dirichlet: &[],
         };
         let mut full = PressureSystem::default();
         assemble_rows(&ctx, &all, &mut full);

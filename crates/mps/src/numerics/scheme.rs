@@ -9,6 +9,7 @@ use super::source::{DriftControl, HsNormalization, PpeSource, SourceModel};
 use super::stabilization::{DsWeighting, DynamicStabilization};
 use super::surface::number_density::NumberDensity;
 use super::surface::SurfaceDetector;
+use super::surface_pressure::SurfacePressure;
 use super::walls::WallPressure;
 
 /// A fully resolved scheme.
@@ -24,6 +25,8 @@ pub struct Scheme {
     pub clamp_negative_pressure: bool,
     /// Free-surface detector.
     pub surface: SurfaceDetector,
+    /// Where the free surface's `p = 0` is placed (particle centres, or the mean surface).
+    pub surface_pressure: SurfacePressure,
     /// Wall particles take the free-surface test (walls open to the air are Dirichlet).
     pub wall_surface_test: bool,
     /// PPE rows count their missing neighbourhood as air at p = 0.
@@ -152,6 +155,7 @@ impl Preset {
             },
             clamp_negative_pressure: self.clamp_negative_pressure,
             surface: SurfaceDetector::NumberDensity(NumberDensity::default()),
+            surface_pressure: SurfacePressure::Zero,
             // Both on for the HS presets, off for plain MPS: docs/decisions.md, "Wall surface
             // test" and "Air ghosts" (departures from the paper).
             wall_surface_test: hs,

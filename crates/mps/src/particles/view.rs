@@ -59,6 +59,14 @@ impl<const D: usize> Cloud<D> {
             neighbors,
         }
     }
+    /// Makes the particles at positions where `wall` holds wall particles.
+    pub(crate) fn set_walls(&mut self, wall: impl Fn(&Vector<D>) -> bool) {
+        for (k, x) in self.kind.iter_mut().zip(&self.pos) {
+            if wall(x) {
+                *k = Kind::Wall;
+            }
+        }
+    }
     /// Flags the particles at positions where `surface` holds as free surface.
     pub(crate) fn set_surface(&mut self, surface: impl Fn(&Vector<D>) -> bool) {
         for (f, x) in self.free_surface.iter_mut().zip(&self.pos) {

@@ -201,8 +201,8 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Stage 4b: solves the PPE (warm start from the last pressures) and returns every
-    /// particle's pressure (Pa): 0 for Dirichlet and dummy particles, clamped if the scheme
-    /// says so.
+    /// particle's pressure (Pa): the Dirichlet value (0 or the mean-surface one) for
+    /// Dirichlet and dummy particles, clamped if the scheme says so.
     pub(super) fn solve_pressure(
         &mut self,
         sys: PressureSystem,
@@ -239,7 +239,7 @@ impl<const D: usize> Simulation<D> {
             .map(|i| {
                 let p = match sys.row_of[i] {
                     NONE if i == reference => offset,
-                    NONE => 0.0,
+                    NONE => sys.dirichlet_value.get(i).copied().unwrap_or(0.0),
                     r if sys.level.is_some() => x[r as usize] + offset,
                     r => x[r as usize],
                 };
