@@ -40,6 +40,8 @@ pub struct CellGrid<const D: usize> {
     start: Vec<u32>,
     /// Particle indices sorted by cell.
     sorted: Vec<u32>,
+    /// The points in that order (m), so a search streams through memory.
+    sorted_points: Vec<Vector<D>>,
 }
 
 /// Most cells a grid may have; a larger extent (a runaway particle) coarsens the cells.
@@ -80,6 +82,7 @@ impl<const D: usize> CellGrid<D> {
             dims,
             start: Vec::new(),
             sorted: Vec::new(),
+            sorted_points: Vec::new(),
         };
         let ncell: usize = dims.iter().product();
         let keys: Vec<u32> = points.par_iter().map(|p| grid.cell_of(p) as u32).collect();
@@ -96,6 +99,7 @@ impl<const D: usize> CellGrid<D> {
             sorted[fill[k as usize] as usize] = i as u32;
             fill[k as usize] += 1;
         }
+        grid.sorted_points = sorted.iter().map(|&i| points[i as usize]).collect();
         grid.start = count;
         grid.sorted = sorted;
         grid
@@ -136,21 +140,37 @@ impl<const D: usize> CellGrid<D> {
         &self.sorted
     }
 
-    /// Calls `f(j)` for every point index in the 3^D cells around `p` (candidates only).
+    /// Calls `f(j)` for every point `j` within `sqrt(r2)` (m) of `p`, scanning the 3^D cells
+    /// around it: each run of three cells along the first axis is contiguous in cell order,
+    /// so the scan is one pass over `sorted_points` per run. The order of the calls is the
+    /// cells' order, then the order within each cell (deterministic).
     #[inline]
-    pub fn for_each_candidate(&self, p: &Vector<D>, mut f: impl FnMut(u32)) {
+    pub fn for_each_within(&self, p: &Vector<D>, r2: f64, mut f: impl FnMut(u32)) {
         let c = self.coords_of(p);
-        let total = 3usize.pow(D as u32);
-        for n in 0..total {
+        let (x_lo, x_hi) = (
+            (c[0] - 1).clamp(0, self.dims[0] as i64 - 1),
+            (c[0] + 1).clamp(0, self.dims[0] as i64 - 1),
+        );
+        if c[0] < -1 || c[0] > self.dims[0] as i64 {
+            return;
+        }
+        let rows = 3usize.pow(D as u32 - 1);
+        for n in 0..rows {
             let mut rem = n;
             let mut cc = c;
-            for item in cc.iter_mut() {
+            for item in cc.iter_mut().skip(1) {
                 *item = item.saturating_add((rem % 3) as i64 - 1);
                 rem /= 3;
             }
-            if let Some(l) = self.linear(&cc) {
-                for &j in &self.sorted[self.start[l] as usize..self.start[l + 1] as usize] {
-                    f(j);
+            cc[0] = x_lo;
+            let Some(first) = self.linear(&cc) else {
+                continue;
+            };
+            let last = first + (x_hi - x_lo) as usize;
+            let (a, b) = (self.start[first] as usize, self.start[last + 1] as usize);
+            for (k, q) in self.sorted_points[a..b].iter().enumerate() {
+                if (*q - *p).norm2() < r2 {
+                    f(self.sorted[a + k]);
                 }
             }
         }
@@ -184,8 +204,8 @@ pub fn build_neighbor_list_within<const D: usize>(
             for i in a..b {
                 let pi = points[i];
                 let before = list.len();
-                grid.for_each_candidate(&pi, |j| {
-                    if j as usize != i && (points[j as usize] - pi).norm2() < c2 {
+                grid.for_each_within(&pi, c2, |j| {
+                    if j as usize != i {
                         list.push(j);
                     }
                 });
