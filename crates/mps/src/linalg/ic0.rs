@@ -50,63 +50,56 @@ impl Ic0 {
 
     /// Modified IC(0) (Gustafsson 1978), relaxed by `omega` in [0, 1]: fill that IC(0) drops
     /// is moved, times `omega`, to the diagonals of its row and column, so that `L L^T` keeps
-    /// the row sums of `a` (at `omega = 1`). Right-looking; `None` if a pivot is not positive.
+    /// the row sums of `a` (at `omega = 1`). Left-looking by columns: column `k` gathers the
+    /// updates of the columns `m` in row `k`, its pattern marked in a dense array, so an
+    /// update either lands on an entry or is dropped without a search (docs/decisions.md,
+    /// "MIC(0)"). `None` if a pivot is not positive.
     pub fn modified(a: &CsrMatrix, omega: f64) -> Option<Ic0> {
         let n = a.n();
         let mut l = lower_triangle(a);
-        // Column k of L below its diagonal: (row, position in `l`), rows ascending.
-        let mut start = vec![0u32; n + 1];
-        for i in 0..n {
-            let (c, _) = l.row(i);
-            for &k in &c[..c.len() - 1] {
-                start[k as usize + 1] += 1;
-            }
-        }
-        for k in 0..n {
-            start[k + 1] += start[k];
-        }
-        let mut fill = start.clone();
-        let mut below = vec![(0u32, 0u32); start[n] as usize];
-        for i in 0..n {
-            let s = l.row_ptr[i] as usize;
-            let (c, _) = l.row(i);
-            for (q, &k) in c[..c.len() - 1].iter().enumerate() {
-                below[fill[k as usize] as usize] = (i as u32, (s + q) as u32);
-                fill[k as usize] += 1;
-            }
-        }
+        let (start, below) = columns_below(&l);
+        // Per column, the first entry of `below` not yet passed by the sweep over k.
+        let mut cursor: Vec<u32> = start[..n].to_vec();
+        // Position in `l.val` of entry (i, k) of the current column k, if in the pattern.
+        let mut slot = vec![u32::MAX; n];
         let diag = |l: &CsrMatrix, i: usize| l.row_ptr[i + 1] as usize - 1;
         for k in 0..n {
+            let col = &below[start[k] as usize..start[k + 1] as usize];
+            for &(i, p) in col {
+                slot[i as usize] = p;
+            }
             let dk = diag(&l, k);
+            let (rs, re) = (l.row_ptr[k] as usize, dk);
+            for q in rs..re {
+                let (m, lkm) = (l.col[q] as usize, l.val[q]);
+                l.val[dk] -= lkm * lkm;
+                let mut c = cursor[m] as usize;
+                let end = start[m + 1] as usize;
+                while c < end && below[c].0 as usize <= k {
+                    c += 1;
+                }
+                cursor[m] = c as u32;
+                for &(i, pim) in &below[c..end] {
+                    let prod = l.val[pim as usize] * lkm;
+                    match slot[i as usize] {
+                        u32::MAX => {
+                            let di = diag(&l, i as usize);
+                            l.val[di] -= omega * prod;
+                            l.val[dk] -= omega * prod;
+                        }
+                        p => l.val[p as usize] -= prod,
+                    }
+                }
+            }
             let d = l.val[dk];
             if d <= 0.0 || !d.is_finite() {
                 return None;
             }
             let lkk = d.sqrt();
             l.val[dk] = lkk;
-            let col = &below[start[k] as usize..start[k + 1] as usize];
-            for &(_, p) in col {
+            for &(i, p) in col {
                 l.val[p as usize] /= lkk;
-            }
-            for (x, &(i, pi)) in col.iter().enumerate() {
-                let (i, lik) = (i as usize, l.val[pi as usize]);
-                let di = diag(&l, i);
-                l.val[di] -= lik * lik;
-                // Rows j < i of column k, ascending, against row i's columns: one merge walk.
-                let mut q = l.row_ptr[i] as usize;
-                for &(j, pj) in &col[..x] {
-                    let prod = lik * l.val[pj as usize];
-                    while q < di && l.col[q] < j {
-                        q += 1;
-                    }
-                    if q < di && l.col[q] == j {
-                        l.val[q] -= prod;
-                    } else {
-                        l.val[di] -= omega * prod;
-                        let dj = diag(&l, j as usize);
-                        l.val[dj] -= omega * prod;
-                    }
-                }
+                slot[i as usize] = u32::MAX;
             }
         }
         Some(Ic0 { l })
@@ -155,6 +148,33 @@ fn lower_triangle(a: &CsrMatrix) -> CsrMatrix {
     CsrMatrix { row_ptr, col, val }
 }
 
+/// Column view of the strict lower triangle of `l`: `start[k]..start[k + 1]` indexes
+/// `below`, the `(row, position in l.val)` of column `k`'s entries, rows ascending.
+fn columns_below(l: &CsrMatrix) -> (Vec<u32>, Vec<(u32, u32)>) {
+    let n = l.n();
+    let mut start = vec![0u32; n + 1];
+    for i in 0..n {
+        let (c, _) = l.row(i);
+        for &k in &c[..c.len() - 1] {
+            start[k as usize + 1] += 1;
+        }
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut fill = start.clone();
+    let mut below = vec![(0u32, 0u32); start[n] as usize];
+    for i in 0..n {
+        let s = l.row_ptr[i] as usize;
+        let (c, _) = l.row(i);
+        for (q, &k) in c[..c.len() - 1].iter().enumerate() {
+            below[fill[k as usize] as usize] = (i as u32, (s + q) as u32);
+            fill[k as usize] += 1;
+        }
+    }
+    (start, below)
+}
+
 impl Precondition for Ic0 {
     fn apply(&self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
         Ic0::apply(self, r, z)
@@ -184,6 +204,96 @@ mod tests {
                 c.iter().zip(v).map(|(&j, &x)| x * y[j as usize]).sum()
             })
             .collect()
+    }
+
+    /// The right-looking MIC(0) this module used before (reference for the left-looking
+    /// one): column k's pairs of rows update each other, a merge walk per row.
+    fn modified_right_looking(a: &CsrMatrix, omega: f64) -> Ic0 {
+        let mut l = lower_triangle(a);
+        let (start, below) = columns_below(&l);
+        let diag = |l: &CsrMatrix, i: usize| l.row_ptr[i + 1] as usize - 1;
+        for k in 0..a.n() {
+            let dk = diag(&l, k);
+            let lkk = l.val[dk].sqrt();
+            l.val[dk] = lkk;
+            let col = &below[start[k] as usize..start[k + 1] as usize];
+            for &(_, p) in col {
+                l.val[p as usize] /= lkk;
+            }
+            for (x, &(i, pi)) in col.iter().enumerate() {
+                let (i, lik) = (i as usize, l.val[pi as usize]);
+                let di = diag(&l, i);
+                l.val[di] -= lik * lik;
+                let mut q = l.row_ptr[i] as usize;
+                for &(j, pj) in &col[..x] {
+                    let prod = lik * l.val[pj as usize];
+                    while q < di && l.col[q] < j {
+                        q += 1;
+                    }
+                    if q < di && l.col[q] == j {
+                        l.val[q] -= prod;
+                    } else {
+                        l.val[di] -= omega * prod;
+                        let dj = diag(&l, j as usize);
+                        l.val[dj] -= omega * prod;
+                    }
+                }
+            }
+        }
+        Ic0 { l }
+    }
+
+    /// The left-looking factor equals the right-looking one to round-off (the same updates,
+    /// summed in another order) on a Laplacian whose IC(0) drops fill, with a shuffled
+    /// numbering so columns have entries at many distances, and on the plain numbering.
+    #[test]
+    fn left_and_right_looking_mic0_agree() {
+        let a = laplacian(30);
+        let n = a.n();
+        // Permute the unknowns: p(i) = 7 i mod n (n = 900 is prime to 7).
+        let perm: Vec<usize> = (0..n).map(|i| (7 * i) % n).collect();
+        let mut inv = vec![0; n];
+        for (i, &p) in perm.iter().enumerate() {
+            inv[p] = i;
+        }
+        let (mut row_ptr, mut col, mut val) = (vec![0u32], Vec::new(), Vec::new());
+        for i in 0..n {
+            let (c, v) = a.row(perm[i]);
+            let mut r: Vec<(u32, f64)> = c
+                .iter()
+                .zip(v)
+                .map(|(&j, &x)| (inv[j as usize] as u32, x))
+                .collect();
+            r.sort_by_key(|e| e.0);
+            for (j, x) in r {
+                col.push(j);
+                val.push(x);
+            }
+            row_ptr.push(col.len() as u32);
+        }
+        let b = CsrMatrix { row_ptr, col, val };
+        // (At omega = 1 this numbering loses positive pivots, in either form.)
+        for omega in [0.0, 0.5, 0.97] {
+            let right = modified_right_looking(&b, omega);
+            let left = Ic0::modified(&b, omega).unwrap();
+            assert_eq!(left.l.col, right.l.col);
+            for (p, q) in left.l.val.iter().zip(&right.l.val) {
+                assert!(
+                    (p - q).abs() < 1e-12 * q.abs().max(1.0),
+                    "omega {omega}: {p} vs {q}"
+                );
+            }
+        }
+        let (left, right) = (
+            Ic0::modified(&a, 1.0).unwrap(),
+            modified_right_looking(&a, 1.0),
+        );
+        for (p, q) in left.l.val.iter().zip(&right.l.val) {
+            assert!(
+                (p - q).abs() < 1e-12 * q.abs().max(1.0),
+                "omega 1: {p} vs {q}"
+            );
+        }
     }
 
     /// MIC(0) at omega = 1 keeps the row sums of the matrix (what makes it "modified"); at
