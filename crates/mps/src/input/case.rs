@@ -719,10 +719,16 @@ impl Case {
             .get("physics")
             .and_then(|p| p.get("gravity"))
             .is_some();
+        let source = table.clone();
         let mut case: Case =
             serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
                 let mut field = dotted_path(&e.path().to_string());
                 let mut msg = e.inner().message().trim().to_string();
+                let value = value_at(&source, &field).unwrap_or_default();
+                // toml's wording when a name (an enum) is given as a number, table or array.
+                if msg == "invalid type: unit variant, expected string only" {
+                    msg = "must be one of the names, in quotes".to_string();
+                }
                 // A missing field is named with its full path (`phases.0.density`).
                 if let Some(name) = msg
                     .strip_prefix("missing field `")
@@ -739,7 +745,7 @@ impl Case {
                 let line = locate_field(text, &msg)
                     .map(|l| format!(" (line {l})"))
                     .unwrap_or_default();
-                err(&field, "", format!("{msg}{line}"))
+                err(&field, &value, format!("{msg}{line}"))
             })?;
         // Only for a dimension the solver has (any other is refused by `validate`, naming it;
         // a huge one must not size a vector first: the fuzz target found that).
@@ -797,6 +803,20 @@ fn locate_field(text: &str, msg: &str) -> Option<usize> {
 }
 
 /// `phases[0].density` (serde's path) as `phases.0.density` (the `--set` form).
+/// The value at dotted `field` (`walls.0.shape.type`) of `table`, as TOML writes it.
+fn value_at(table: &toml::Table, field: &str) -> Option<String> {
+    let mut keys = field.split('.');
+    let mut v = table.get(keys.next()?)?;
+    for k in keys {
+        v = match v {
+            toml::Value::Table(t) => t.get(k)?,
+            toml::Value::Array(a) => a.get(k.parse::<usize>().ok()?)?,
+            _ => return None,
+        };
+    }
+    Some(v.to_string())
+}
+
 fn dotted_path(path: &str) -> String {
     if path == "." {
         return String::new();
@@ -933,6 +953,25 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         )
         .unwrap_err();
         assert_eq!(e.field, "particles.spacing", "{e}");
+        assert_eq!(e.value, "\"abc\"", "{e}");
+    }
+
+    /// A value of the wrong type is named with its field and its value; a name (an enum)
+    /// given as a number says that a quoted name is wanted, not toml's "unit variant".
+    #[test]
+    fn a_value_of_the_wrong_type_is_shown() {
+        let set = |k: &str, v: &str| {
+            Case::from_str_named(MINIMAL, "t.toml", &[(k.into(), v.into())]).unwrap_err()
+        };
+        let e = set("scheme.wall_pressure", "3");
+        assert_eq!(
+            (e.field.as_str(), e.value.as_str()),
+            ("scheme.wall_pressure", "3")
+        );
+        assert!(e.message.contains("in quotes"), "{e}");
+        let e = set("scheme.surface_pressure", "\"edge\"");
+        assert_eq!(e.value, "\"edge\"", "{e}");
+        assert!(e.message.contains("mean-surface"), "{e}");
     }
 
     #[test]
