@@ -121,10 +121,8 @@ impl Ic0 {
         let l = &self.l;
         for i in 0..n {
             let (c, v) = l.row(i);
-            let mut s = r[i];
-            for k in 0..c.len() - 1 {
-                s -= v[k] * z[c[k] as usize];
-            }
+            let m = c.len() - 1;
+            let s = r[i] - super::sparse::row_dot(&c[..m], &v[..m], z);
             z[i] = s * self.inv_diag[i];
         }
         for i in (0..n).rev() {
