@@ -138,6 +138,15 @@ fn ppe_matrix_is_symmetric_mid_run() {
     }
 }
 
+/// Runs `f` on a pool of `threads` workers.
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 /// The same case with 1 and 2 threads writes byte-identical output files.
 #[test]
 fn one_and_two_threads_give_identical_output() {
@@ -149,11 +158,7 @@ fn one_and_two_threads_give_identical_output() {
     let mut dirs = Vec::new();
     for threads in [1, 2] {
         let dir = tmp(&format!("threads{threads}"));
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut s = sim("dam_break", &set);
             run(&mut s, &dir, &mut Silent).unwrap();
         });
@@ -475,11 +480,7 @@ fn mean_surface_pressures_are_thread_and_restart_identical() {
             ("scheme.surface_pressure", option),
             ("particles.spacing", "0.04"),
         ];
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut s = sim("square_patch", &set);
             for k in 0..30 {
                 if Some(k) == restart_at {

@@ -65,10 +65,9 @@ pub fn dirichlet_values<const D: usize>(v: &View<D>, previous: &[f64], k: &Kerne
 /// `G_i s_i` (Pa) of free-surface particle `i`.
 fn mean_surface_value<const D: usize>(i: usize, v: &View<D>, previous: &[f64], k: &Kernels) -> f64 {
     let (re, l0) = (k.grad.re, k.l0);
-    let fluid = |j: usize| v.kind[j] == Kind::Fluid;
     let mut centroid = Vector::<D>::zero();
     for q in v.pairs(i, re) {
-        if !fluid(q.j) {
+        if v.kind[q.j] != Kind::Fluid {
             // Where the surface meets a wall the mean surface is not defined: the paper's 0.
             return 0.0;
         }
@@ -80,16 +79,14 @@ fn mean_surface_value<const D: usize>(i: usize, v: &View<D>, previous: &[f64], k
     }
     let n = centroid * (-1.0 / len);
     let (mut sw, mut so) = (weight(l0, re), 0.0);
-    for q in v.pairs(i, re).filter(|q| fluid(q.j) && v.free_surface[q.j]) {
+    // Every neighbour is fluid from here on (a wall or dummy returned above).
+    for q in v.pairs(i, re).filter(|q| v.free_surface[q.j]) {
         sw += q.w;
         so += q.w * q.xij.dot(&n);
     }
     let s = (-so / sw).clamp(-MAX_OFFSET * l0, MAX_OFFSET * l0);
     let (mut num, mut den, mut count, mut bound) = (0.0, 0.0, 0, 0.0f64);
-    for q in v
-        .pairs(i, re)
-        .filter(|q| fluid(q.j) && !v.free_surface[q.j])
-    {
+    for q in v.pairs(i, re).filter(|q| !v.free_surface[q.j]) {
         let d = q.xij.dot(&n) + s;
         num += q.w * previous[q.j] * d;
         den += q.w * d * d;
