@@ -261,7 +261,7 @@ fn ds_without_active_pairs_is_bit_identical_to_gc() {
 #[test]
 fn restart_from_checkpoint_is_bit_identical() {
     let mut bytes = Vec::new();
-    for solver in ["ic0-cg", "mic0-cg", "amg-cg"] {
+    for solver in ["ic0-cg", "mic0-cg", "dilu-cg", "amg-cg"] {
         let set = [("particles.spacing", "0.0073"), ("solver.kind", solver)];
         let mut straight = sim("dam_break", &set);
         for k in 0..40 {
@@ -353,6 +353,10 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
     let mut x = vec![0.0; n];
     let st = pcg(a, &sys.rhs, &mut x, &amg, 1e-10, 500).expect("amg-cg");
     results.push(("amg-cg", x, st.iterations));
+    let dilu = mps::linalg::Dilu::new(a, mps::linalg::DILU_OMEGA).expect("D-ILU builds");
+    let mut x = vec![0.0; n];
+    let st = mps::linalg::dilu_cg(a, &sys.rhs, &mut x, &dilu, 1e-10, 20_000).expect("dilu-cg");
+    results.push(("dilu-cg", x, st.iterations));
     for (name, x, it) in &results {
         let err = x
             .iter()
@@ -372,7 +376,9 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
     );
     let its = |k: &str| results.iter().find(|r| r.0 == k).unwrap().2;
     assert!(
-        its("amg-cg") < its("ic0-cg") && its("mic0-cg") < its("ic0-cg"),
+        its("amg-cg") < its("ic0-cg")
+            && its("mic0-cg") < its("ic0-cg")
+            && its("dilu-cg") < its("jacobi-cg"),
         "{results:?}",
         results = results.iter().map(|r| (r.0, r.2)).collect::<Vec<_>>()
     );

@@ -6,11 +6,13 @@
 //! and `amg` implement.
 
 pub mod amg;
+pub mod dilu;
 pub mod ic0;
 pub mod pcg;
 pub mod sparse;
 
 pub use amg::{Amg, AmgParams};
+pub use dilu::{dilu_cg, Dilu};
 pub use ic0::Ic0;
 pub use pcg::{pcg, Identity, Jacobi, NotConverged, Precondition, SolveStats};
 pub use sparse::CsrMatrix;
@@ -33,15 +35,20 @@ pub enum SolverKind {
     Mic0Cg,
     /// Smoothed-aggregation algebraic multigrid preconditioned CG.
     AmgCg,
+    /// Modified D-ILU preconditioned CG by Eisenstat's trick (relaxed by [`DILU_OMEGA`]).
+    DiluCg,
 }
 
-/// PPE size (unknowns) from which `auto` picks AMG-CG over IC(0)-CG: the measured crossover
-/// of their step times on the dam break (docs/decisions.md, "Solver choice").
+/// PPE size (unknowns) from which `auto` picks AMG-CG over MIC(0)-CG: the measured crossover
+/// of their step times on the dam break (docs/decisions.md, "Solver choice", "MIC(0)").
 pub const AUTO_AMG_UNKNOWNS: usize = 8000;
 
 /// Relaxation of MIC(0): the share of the dropped fill moved to the diagonal
 /// (docs/decisions.md, "MIC(0)").
 pub const MIC_OMEGA: f64 = 0.97;
+
+/// Relaxation of the modified D-ILU pivots (docs/decisions.md, "Modified D-ILU").
+pub const DILU_OMEGA: f64 = 0.99;
 
 impl SolverKind {
     /// The solver `auto` stands for at `unknowns` rows; other kinds are themselves.

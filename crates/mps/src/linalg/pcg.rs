@@ -59,6 +59,18 @@ pub struct NotConverged {
     pub stats: SolveStats,
 }
 
+impl NotConverged {
+    /// Stopped after `iterations` at the relative residual `residual`.
+    pub fn at(iterations: usize, residual: f64) -> NotConverged {
+        NotConverged {
+            stats: SolveStats {
+                iterations,
+                residual,
+            },
+        }
+    }
+}
+
 /// Preconditioned conjugate gradient for SPD `a`, starting from `x` (warm start), to the
 /// relative residual `tol`.
 pub fn pcg(
@@ -128,12 +140,7 @@ pub fn pcg(
                 }
             });
     }
-    Err(NotConverged {
-        stats: SolveStats {
-            iterations: max_iter,
-            residual: rnorm / bnorm,
-        },
-    })
+    Err(NotConverged::at(max_iter, rnorm / bnorm))
 }
 
 #[cfg(test)]

@@ -4,7 +4,8 @@
 
 use crate::input::case::SolverSpec;
 use crate::linalg::{
-    pcg, Amg, AmgParams, Ic0, Identity, Jacobi, NotConverged, SolveStats, MIC_OMEGA,
+    dilu_cg, pcg, Amg, AmgParams, Dilu, Ic0, Identity, Jacobi, NotConverged, SolveStats,
+    DILU_OMEGA, MIC_OMEGA,
 };
 use crate::linalg::{Precondition, SolverKind};
 use crate::numerics::ppe::PressureSystem;
@@ -106,6 +107,15 @@ impl PressureSolver {
                 .map(|f| {
                     report.setup = t0.elapsed();
                     timed_pcg(sys, x, &f, tol, max_iter)
+                }),
+            // Modified D-ILU; where a relaxed pivot is not positive, plain D-ILU.
+            SolverKind::DiluCg => Dilu::new(&sys.matrix, DILU_OMEGA)
+                .or_else(|| Dilu::new(&sys.matrix, 0.0))
+                .map(|m| {
+                    report.setup = t0.elapsed();
+                    let t = Instant::now();
+                    let r = dilu_cg(&sys.matrix, &sys.rhs, x, &m, tol, max_iter);
+                    (r, t.elapsed())
                 }),
             SolverKind::Cg => {
                 report.setup = t0.elapsed();
