@@ -187,6 +187,9 @@ impl Precondition for Ic0 {
     fn apply(&self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
         Ic0::apply(self, r, z)
     }
+    fn sequential(&self) -> bool {
+        true
+    }
 }
 
 #[cfg(test)]

@@ -1,13 +1,22 @@
 //! Preconditioned conjugate gradient for symmetric positive-definite systems, and the
 //! preconditioner interface (identity and Jacobi here; IC(0) and AMG in their own files).
 
-use super::sparse::{dot, CsrMatrix, CHUNK};
+use super::sparse::{dot_split, CsrMatrix, CHUNK};
 use rayon::prelude::*;
+
+/// Below this many unknowns, CG with a sequential preconditioner does its products and
+/// vector updates on the calling thread: waking the pool's other workers for them cost more
+/// than they saved (docs/decisions.md, "CG on one thread").
+pub const SEQUENTIAL_BELOW: usize = 32768;
 
 /// Anything that applies an approximate inverse `z = M^-1 r` of the matrix `a` inside CG.
 pub trait Precondition {
     /// `z = M^-1 r` (`M` symmetric positive definite, built for `a`).
     fn apply(&self, a: &CsrMatrix, r: &[f64], z: &mut [f64]);
+    /// True when `apply` runs on the calling thread only (substitutions).
+    fn sequential(&self) -> bool {
+        false
+    }
 }
 
 /// No preconditioning (plain CG).
@@ -82,14 +91,24 @@ pub fn pcg(
     max_iter: usize,
 ) -> Result<SolveStats, NotConverged> {
     let n = b.len();
+    // Pieces handed to the pool: all on this thread for a small sequential solve.
+    let ml = if m.sequential() && n < SEQUENTIAL_BELOW {
+        usize::MAX
+    } else {
+        1
+    };
+    let dot = |u: &[f64], v: &[f64]| dot_split(u, v, ml);
     let bnorm = dot(b, b).sqrt();
     if bnorm == 0.0 {
         x.iter_mut().for_each(|v| *v = 0.0);
         return Ok(SolveStats::default());
     }
     let mut r = vec![0.0; n];
-    a.spmv(x, &mut r);
-    r.par_iter_mut().zip(b).for_each(|(ri, bi)| *ri = bi - *ri);
+    a.spmv_split(x, &mut r, ml);
+    r.par_iter_mut()
+        .zip(b)
+        .with_min_len(ml)
+        .for_each(|(ri, bi)| *ri = bi - *ri);
     let mut z = vec![0.0; n];
     let mut q = vec![0.0; n];
     let mut rnorm = dot(&r, &r).sqrt();
@@ -103,7 +122,7 @@ pub fn pcg(
     let mut p = z.clone();
     let mut rz = dot(&r, &z);
     for it in 1..=max_iter {
-        a.spmv(&p, &mut q);
+        a.spmv_split(&p, &mut q, ml);
         let pq = dot(&p, &q);
         if !(pq > 0.0) {
             break;
@@ -112,6 +131,7 @@ pub fn pcg(
         x.par_chunks_mut(CHUNK)
             .zip(r.par_chunks_mut(CHUNK))
             .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK)))
+            .with_min_len(ml)
             .for_each(|((x, r), (p, q))| {
                 for k in 0..x.len() {
                     x[k] += alpha * p[k];
@@ -134,6 +154,7 @@ pub fn pcg(
         rz = rz_new;
         p.par_chunks_mut(CHUNK)
             .zip(z.par_chunks(CHUNK))
+            .with_min_len(ml)
             .for_each(|(p, z)| {
                 for k in 0..p.len() {
                     p[k] = z[k] + beta * p[k];

@@ -51,12 +51,21 @@ impl CsrMatrix {
     }
     /// `y = A x`, parallel over rows.
     pub fn spmv(&self, x: &[f64], y: &mut [f64]) {
-        y.par_chunks_mut(1024).enumerate().for_each(|(c, ys)| {
-            for (k, yi) in ys.iter_mut().enumerate() {
-                let (cols, vals) = self.row(c * 1024 + k);
-                *yi = row_dot(cols, vals, x);
-            }
-        });
+        self.spmv_split(x, y, 1)
+    }
+    /// `y = A x` in chunks of 1024 rows, handed to the pool in pieces of at least
+    /// `min_chunks` chunks (`usize::MAX`: all on the calling thread); the same result either
+    /// way.
+    pub fn spmv_split(&self, x: &[f64], y: &mut [f64], min_chunks: usize) {
+        y.par_chunks_mut(1024)
+            .with_min_len(min_chunks)
+            .enumerate()
+            .for_each(|(c, ys)| {
+                for (k, yi) in ys.iter_mut().enumerate() {
+                    let (cols, vals) = self.row(c * 1024 + k);
+                    *yi = row_dot(cols, vals, x);
+                }
+            });
     }
     /// The diagonal entries (0 where none is stored).
     pub fn diagonal(&self) -> Vec<f64> {
@@ -177,9 +186,16 @@ pub fn row_dot(cols: &[u32], vals: &[f64], x: &[f64]) -> f64 {
 
 /// Dot product in a fixed summation order.
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    dot_split(a, b, 1)
+}
+
+/// [`dot`] with its chunks handed to the pool in pieces of at least `min_chunks` chunks
+/// (`usize::MAX`: all on the calling thread); the same result either way.
+pub fn dot_split(a: &[f64], b: &[f64], min_chunks: usize) -> f64 {
     let parts: Vec<f64> = a
         .par_chunks(CHUNK)
         .zip(b.par_chunks(CHUNK))
+        .with_min_len(min_chunks)
         .map(|(x, y)| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>())
         .collect();
     parts.iter().sum()
