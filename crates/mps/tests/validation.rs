@@ -353,9 +353,12 @@ fn a_front_against_a_reference_csv_agrees_with_the_built_in_comparison() {
     assert!(rows.len() >= 12);
 }
 
-/// A probe against a reference curve: still water (the example, to 1.5 s), the bottom
-/// probe's 50 ms moving average against rho g H from 0.5 s to 1.5 s passes 5 % RMS and 10 %
-/// peak tolerances; the same run against a curve 20 % high fails both.
+/// A probe against a reference curve: still water (the example under MPS-HS-GC-DS, to
+/// 1.5 s), the bottom probe's 50 ms moving average against rho g H from 0.5 s to 1.5 s
+/// passes 5 % RMS and 10 % peak tolerances; the same run against a curve 20 % high fails
+/// both. The comparator is under test, so the signal is a quiet one: plain MPS's average
+/// swings by up to 14 % of rho g H from one solver realisation to the next
+/// (docs/decisions.md, "Modified D-ILU").
 #[test]
 #[ignore = "validation run (release mode): cargo test --release -- --ignored"]
 fn a_probe_against_a_reference_csv_passes_the_right_curve_and_fails_a_wrong_one() {
@@ -379,10 +382,14 @@ fn a_probe_against_a_reference_csv_passes_the_right_curve_and_fails_a_wrong_one(
         );
         let case_path = dir.join(format!("{name}.toml"));
         std::fs::write(&case_path, text).unwrap();
-        let over: Vec<(String, String)> = [("output.vtu", "false"), ("time.end", "1.5")]
-            .iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect();
+        let over: Vec<(String, String)> = [
+            ("output.vtu", "false"),
+            ("time.end", "1.5"),
+            ("scheme.name", "MPS-HS-GC-DS"),
+        ]
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
         let case = mps::Case::from_file(&case_path, &over).unwrap();
         let mut s = mps::Simulation::<2>::new(case, name).unwrap();
         let summary = run(&mut s, &dir.join(name), &mut Silent).unwrap();
