@@ -23,7 +23,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SolverKind {
-    /// MIC(0)-CG below [`AUTO_AMG_UNKNOWNS`] unknowns, AMG-CG from there on.
+    /// Below [`AUTO_AMG_UNKNOWNS`] unknowns MIC(0)-CG in 2D and modified D-ILU-CG in 3D,
+    /// AMG-CG from there on.
     Auto,
     /// Unpreconditioned conjugate gradient.
     Cg,
@@ -51,10 +52,13 @@ pub const MIC_OMEGA: f64 = 0.97;
 pub const DILU_OMEGA: f64 = 0.99;
 
 impl SolverKind {
-    /// The solver `auto` stands for at `unknowns` rows; other kinds are themselves.
-    pub fn for_size(self, unknowns: usize) -> SolverKind {
+    /// The solver `auto` stands for at `unknowns` rows in `dimension` 2 or 3; other kinds
+    /// are themselves. In 3D a row has about 120 neighbours and MIC(0)'s set-up costs as much
+    /// as its solve; D-ILU needs none (docs/decisions.md, "Modified D-ILU").
+    pub fn for_size(self, unknowns: usize, dimension: usize) -> SolverKind {
         match self {
             SolverKind::Auto if unknowns >= AUTO_AMG_UNKNOWNS => SolverKind::AmgCg,
+            SolverKind::Auto if dimension == 3 => SolverKind::DiluCg,
             SolverKind::Auto => SolverKind::Mic0Cg,
             k => k,
         }

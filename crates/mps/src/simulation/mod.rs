@@ -126,7 +126,7 @@ impl<const D: usize> Simulation<D> {
         });
         let mut sim = Simulation {
             phase_viscosity: case.phases.iter().map(|p| p.viscosity).collect(),
-            solver: PressureSolver::new(&case.solver),
+            solver: PressureSolver::new(&case.solver, D),
             case,
             particles,
             scheme,

@@ -45,6 +45,8 @@ pub struct SolveReport {
 #[derive(Debug)]
 pub struct PressureSolver {
     kind: SolverKind,
+    /// 2 or 3: what `auto` chooses depends on it.
+    dimension: usize,
     tolerance: f64,
     max_iterations: usize,
     amg: Option<AmgCache>,
@@ -67,10 +69,11 @@ fn timed_pcg(
 }
 
 impl PressureSolver {
-    /// A solver as the case's `[solver]` table asks.
-    pub fn new(spec: &SolverSpec) -> Self {
+    /// A solver as the case's `[solver]` table asks, for a run in `dimension` 2 or 3.
+    pub fn new(spec: &SolverSpec, dimension: usize) -> Self {
         PressureSolver {
             kind: spec.kind,
+            dimension,
             tolerance: spec.tolerance,
             max_iterations: spec.max_iterations,
             amg: None,
@@ -95,7 +98,7 @@ impl PressureSolver {
         let (tol, max_iter) = (self.tolerance, self.max_iterations);
         let mut report = SolveReport::default();
         // `None`: the chosen preconditioner could not be built.
-        let attempt = match self.kind.for_size(sys.matrix.n()) {
+        let attempt = match self.kind.for_size(sys.matrix.n(), self.dimension) {
             SolverKind::AmgCg => self.solve_amg(sys, x, t0, &mut report),
             SolverKind::Ic0Cg => Ic0::new(&sys.matrix).map(|f| {
                 report.setup = t0.elapsed();
@@ -124,7 +127,7 @@ impl PressureSolver {
             _ => None,
         };
         let (result, solve) = attempt.unwrap_or_else(|| {
-            if self.kind.for_size(sys.matrix.n()) != SolverKind::JacobiCg {
+            if self.kind.for_size(sys.matrix.n(), self.dimension) != SolverKind::JacobiCg {
                 self.fallbacks += 1;
                 report.fallback = true;
             }
