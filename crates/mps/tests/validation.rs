@@ -424,3 +424,55 @@ fn a_bad_reference_csv_is_refused_when_the_case_loads() {
     );
     assert!(!e.contains('\n'));
 }
+
+/// The rotating disc with a mode-6 perturbation (`rotating_disc_mode`, MPS-HS-GC-DS): the
+/// surface mode grows as linear theory of the centrifugal Rayleigh-Taylor instability says,
+/// `(U / gamma) sinh(gamma t)`, within the case's tolerance up to t = 1.05 s, and a run
+/// resumed from a checkpoint at 0.5 s measures the same particles (the same `rim_mode.csv`).
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn a_rotating_disc_surface_mode_grows_as_linear_theory() {
+    let set = [("output.vtu", "false")];
+    let mut s = sim("rotating_disc_mode", &set);
+    let dir = tmp("rotating_disc_mode");
+    let summary = run(&mut s, &dir, &mut Silent).unwrap();
+    assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
+    let v = &summary.validation[0];
+    eprintln!(
+        "rotating disc mode 6: amplitude {:.4} m vs theory {:.4} m at the end, largest error {:+.1} %",
+        v.value,
+        v.reference,
+        100.0 * v.error
+    );
+    assert_eq!(v.name, "surface_mode_growth");
+    assert!(v.passed, "{v:?}");
+    // It measures growth, not noise: about one spacing by the end.
+    assert!(v.value > 0.015, "{v:?}");
+
+    let first = tmp("rotating_disc_mode_first");
+    let mut a = sim(
+        "rotating_disc_mode",
+        &[("output.vtu", "false"), ("time.end", "0.5")],
+    );
+    run(&mut a, &first, &mut Silent).unwrap();
+    let bytes = std::fs::read(first.join("checkpoint.bin")).unwrap();
+    let mut b = sim("rotating_disc_mode", &set);
+    mps::io::checkpoint::restore(&mut b, &bytes, &first).unwrap();
+    let resumed = tmp("rotating_disc_mode_resumed");
+    let again = mps::run::run_from(&mut b, &resumed, Some(&first), &mut Silent).unwrap();
+    // The rows before the checkpoint are carried; after it the same rim is measured (the
+    // first run's last steps land on 0.5 s, so the states differ by round-off only).
+    let (t0, a0) = (
+        column(&dir.join("rim_mode.csv"), "time"),
+        column(&dir.join("rim_mode.csv"), "amplitude"),
+    );
+    let (t1, a1) = (
+        column(&resumed.join("rim_mode.csv"), "time"),
+        column(&resumed.join("rim_mode.csv"), "amplitude"),
+    );
+    let before = t0.iter().take_while(|&&t| t < 0.49).count();
+    assert!(before >= 9 && t1[..before] == t0[..before] && a1[..before] == a0[..before]);
+    let (end0, end1) = (a0[a0.len() - 1], a1[a1.len() - 1]);
+    assert!((end1 / end0 - 1.0).abs() < 0.02, "{end1} vs {end0}");
+    assert!(again.validation[0].passed, "{:?}", again.validation);
+}

@@ -8,6 +8,7 @@ pub mod exact;
 pub mod groups;
 pub mod metrics;
 pub mod probes;
+pub mod rim_mode;
 pub mod summary;
 pub mod surface;
 pub mod validation;

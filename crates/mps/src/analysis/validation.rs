@@ -370,9 +370,68 @@ pub fn elliptic_drop(
     ))
 }
 
+/// Rim-mode check (`analysis::rim_mode`): the largest relative error of the recorded mode
+/// amplitude `(t, |eta_n|)` against linear theory, `(U / gamma) sinh(gamma t)`, over the
+/// outputs with `0 < t <= until`, within `tolerance`. Value and reference: the amplitude at
+/// the last compared output (m).
+pub fn surface_mode(
+    series: &[(f64, f64)],
+    u: f64,
+    (omega, mode): (f64, u32),
+    until: f64,
+    tolerance: f64,
+) -> Option<ValidationResult> {
+    use super::rim_mode::linear_amplitude;
+    let compared: Vec<(f64, f64, f64)> = series
+        .iter()
+        .filter(|s| s.0 > 0.0 && s.0 <= until)
+        .map(|&(t, a)| (t, a, linear_amplitude(u, omega, mode, t)))
+        .collect();
+    let &(_, last, last_exact) = compared.last()?;
+    let (mut worst, mut at) = (0.0f64, 0.0);
+    for &(t, a, e) in &compared {
+        let err = if e > 0.0 { (a - e) / e } else { f64::INFINITY };
+        if !(err.abs() <= worst.abs()) {
+            (worst, at) = (err, t);
+        }
+    }
+    Some(ValidationResult::new(
+        "surface_mode_growth",
+        last,
+        last_exact,
+        worst,
+        tolerance,
+        format!(
+            "mode {mode} of the rim's displacement against linear theory (U = {u:.4e} m/s, growth rate {:.3} /s) over {} outputs to t = {until} s: largest relative error at t = {at:.4} s; value and reference: amplitude at the last output compared (m)",
+            omega.abs() * (mode as f64 - 1.0).sqrt(),
+            compared.len()
+        ),
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rim-mode check passes the theory itself, fails a rim that drifts ballistically
+    /// (no pressure force: amplitude `U t`), and fails an empty window.
+    #[test]
+    fn surface_mode_check() {
+        use crate::analysis::rim_mode::linear_amplitude;
+        let (u, omega, n) = (0.01, 1.0, 6);
+        let exact: Vec<(f64, f64)> = (0..=20)
+            .map(|k| {
+                let t = k as f64 * 0.05;
+                (t, linear_amplitude(u, omega, n, t))
+            })
+            .collect();
+        let r = surface_mode(&exact, u, (omega, n), 1.0, 0.15).unwrap();
+        assert!(r.passed && r.error.abs() < 1e-12, "{r:?}");
+        let ballistic: Vec<(f64, f64)> = exact.iter().map(|&(t, _)| (t, u * t)).collect();
+        let r = surface_mode(&ballistic, u, (omega, n), 1.0, 0.15).unwrap();
+        assert!(!r.passed && r.error < -0.3, "{r:?}");
+        assert!(surface_mode(&exact[..1], u, (omega, n), 1.0, 0.15).is_none());
+    }
 
     /// A group falling at exactly the sphere's ideal-fluid acceleration passes in 3D with
     /// no error, and reads (rho_g + rho_w) / (rho_g + rho_w / 2) - 1 = +15.9 % against the

@@ -43,6 +43,11 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/rotating_disc.toml"),
     ),
     (
+        "rotating_disc_mode",
+        "Rotating disc with a mode-6 perturbation: its surface's Rayleigh-Taylor growth against linear theory",
+        include_str!("../../cases/rotating_disc_mode.toml"),
+    ),
+    (
         "elliptic_drop",
         "Elliptic drop (Monaghan 1994): a circle stretched into an ellipse, exact semi-axes",
         include_str!("../../cases/elliptic_drop.toml"),

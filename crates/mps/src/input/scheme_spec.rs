@@ -67,7 +67,7 @@ pub struct SchemeSpec {
     /// Clamp negative pressure to zero.
     pub clamp_negative_pressure: Option<bool>,
     /// Free-surface detector and its parameters: `detector = "<name>"` (one of
-    /// `numerics::surface::SurfaceDetector::NAMES`, default `number-density`), the rest the
+    /// `numerics::surface::SurfaceDetector::NAMES`; default the preset's), the rest the
     /// detector's own parameters.
     pub surface: Option<toml::Table>,
     /// Shorthand for `surface.beta` of the number-density detector.
@@ -129,11 +129,12 @@ fn check(label: &str, field: &str, value: f64, ok: bool, range: &str) -> Result<
 }
 
 impl SchemeSpec {
-    /// The free-surface detector: `[scheme.surface]`, or the number-density shorthands.
-    fn surface(&self, label: &str) -> Result<SurfaceDetector, CaseError> {
+    /// The free-surface detector: `[scheme.surface]`, or the number-density shorthands;
+    /// `preset` names the preset's detector, taken when the case names none.
+    fn surface(&self, label: &str, preset: &str) -> Result<SurfaceDetector, CaseError> {
         let mut params = self.surface.clone().unwrap_or_default();
         let name = match params.remove("detector") {
-            None => "number-density".to_string(),
+            None => preset.to_string(),
             Some(toml::Value::String(s)) => s,
             Some(other) => {
                 let msg = "must be a string (a detector name)";
@@ -291,7 +292,7 @@ impl SchemeSpec {
             let ok = c > 0.0 && c.is_finite();
             s.sound_speed = Some(check(label, "sound_speed", c, ok, "(0, inf)")?);
         }
-        s.surface = self.surface(label)?;
+        s.surface = self.surface(label, s.surface.name())?;
         s.surface_pressure = self.surface_pressure.unwrap_or(s.surface_pressure);
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;

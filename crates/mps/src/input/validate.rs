@@ -215,6 +215,7 @@ impl Case {
                     "must be a time >= 0",
                 )
             }
+            Some(v @ ValidationSpec::SurfaceMode { .. }) => check_surface_mode(c, v),
             Some(ValidationSpec::EllipticDrop {
                 center,
                 radius,
@@ -469,4 +470,35 @@ impl Case {
             "must lie in (0, 1)",
         )
     }
+}
+
+/// The figures of a `surface_mode` validation.
+fn check_surface_mode(c: &Checker, v: &ValidationSpec) -> Result<(), CaseError> {
+    let ValidationSpec::SurfaceMode {
+        center,
+        radius,
+        omega,
+        mode,
+        until,
+        tolerance,
+    } = v
+    else {
+        return Ok(());
+    };
+    c.vector("validation.center", center)?;
+    c.positive("validation.radius", *radius)?;
+    c.require(
+        omega.is_finite(),
+        "validation.omega",
+        *omega,
+        "must be finite",
+    )?;
+    c.require(
+        (2..=1000).contains(mode),
+        "validation.mode",
+        *mode as f64,
+        "must be a mode number from 2 to 1000",
+    )?;
+    c.positive("validation.until", *until)?;
+    c.positive("validation.tolerance", *tolerance)
 }

@@ -7,6 +7,7 @@ use super::density::DensityAverage;
 use super::gradient::{GradientDensity, GradientModel, PressureGradient};
 use super::source::{DriftControl, HsNormalization, PpeSource, SourceModel};
 use super::stabilization::{DsWeighting, DynamicStabilization};
+use super::surface::distribution::Distribution;
 use super::surface::number_density::NumberDensity;
 use super::surface::SurfaceDetector;
 use super::surface_pressure::SurfacePressure;
@@ -154,8 +155,21 @@ impl Preset {
                 gamma: defaults::GAMMA,
             },
             clamp_negative_pressure: self.clamp_negative_pressure,
-            surface: SurfaceDetector::NumberDensity(NumberDensity::default()),
-            surface_pressure: SurfacePressure::Zero,
+            // The DS preset: the distribution test and p = 0 on the mean surface (beyond the
+            // paper, which does not state its surface treatment): docs/decisions.md, "The
+            // rotating disc is unstable". The others keep the number density and p = 0 at
+            // the particles (MPS-HS-GC's still tank breaks with the pair: "Surface pressure
+            // at the mean surface").
+            surface: if self.ds {
+                SurfaceDetector::Distribution(Distribution::default())
+            } else {
+                SurfaceDetector::NumberDensity(NumberDensity::default())
+            },
+            surface_pressure: if self.ds {
+                SurfacePressure::MeanSurface
+            } else {
+                SurfacePressure::Zero
+            },
             // Both on for the HS presets, off for plain MPS: docs/decisions.md, "Wall surface
             // test" and "Air ghosts" (departures from the paper).
             wall_surface_test: hs,

@@ -10,7 +10,7 @@ use crate::analysis::metrics::Metrics;
 use crate::analysis::probes::{noise, smooth, SMOOTHING_WINDOW};
 use crate::analysis::validation::{
     against_curve, curve_results, dam_break, early_acceleration, elliptic_drop, hydrostatic,
-    rotating_disc, DiscSpec, ValidationResult,
+    rotating_disc, surface_mode, DiscSpec, ValidationResult,
 };
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
@@ -280,6 +280,30 @@ fn write_smoothed_probes<const D: usize>(
     csv.flush()
 }
 
+/// The dam-break front against Martin & Moyce, and `dam_break_front.csv`.
+fn dam_break_front<const D: usize>(
+    rec: &Recorder<D>,
+    column_width: f64,
+    g: f64,
+    l0: f64,
+    out: &Path,
+) -> Result<ValidationResult> {
+    let (result, rows) = dam_break(&rec.front_series, column_width, g, l0);
+    let header = ["T", "Z_experiment", "Z_simulation", "difference"].map(String::from);
+    let mut csv = Series::create(&out.join("dam_break_front.csv"), Some(&header))?;
+    for &(t, experiment, simulation) in &rows {
+        let difference = simulation - experiment;
+        csv.push(&FrontRow {
+            t,
+            experiment,
+            simulation,
+            difference,
+        })?;
+    }
+    csv.flush()?;
+    Ok(result)
+}
+
 /// The case's validation against reference data (and the dam break's comparison file).
 fn validate<const D: usize>(
     sim: &Simulation<D>,
@@ -291,20 +315,7 @@ fn validate<const D: usize>(
     let rho_w = case.phases[0].density;
     let result = match &case.validation {
         Some(ValidationSpec::DamBreak { column_width, .. }) => {
-            let (result, rows) = dam_break(&rec.front_series, *column_width, g, sim.l0());
-            let header = ["T", "Z_experiment", "Z_simulation", "difference"].map(String::from);
-            let mut csv = Series::create(&out.join("dam_break_front.csv"), Some(&header))?;
-            for &(t, experiment, simulation) in &rows {
-                let difference = simulation - experiment;
-                csv.push(&FrontRow {
-                    t,
-                    experiment,
-                    simulation,
-                    difference,
-                })?;
-            }
-            csv.flush()?;
-            Some(result)
+            Some(dam_break_front(rec, *column_width, g, sim.l0(), out)?)
         }
         Some(ValidationSpec::Hydrostatic {
             depth,
@@ -346,6 +357,16 @@ fn validate<const D: usize>(
             strain_rate,
             ..
         }) => elliptic_drop(&rec.axes_series, *radius, *strain_rate),
+        Some(ValidationSpec::SurfaceMode {
+            omega,
+            mode,
+            until,
+            tolerance,
+            ..
+        }) => {
+            let u = rec.rim.as_ref().map_or(0.0, |r| r.initial_velocity);
+            surface_mode(&rec.rim_series, u, (*omega, *mode), *until, *tolerance)
+        }
         Some(ValidationSpec::ProbeReference {
             probe,
             reference,

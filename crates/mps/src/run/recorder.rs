@@ -4,6 +4,7 @@
 use crate::analysis::exact::semi_axes;
 use crate::analysis::groups::{group_states, pressure_noise};
 use crate::analysis::metrics::{front_position, Metrics};
+use crate::analysis::rim_mode::RimMode;
 use crate::error::Result;
 use crate::input::case::ValidationSpec;
 use crate::io::checkpoint::write_checkpoint;
@@ -18,8 +19,11 @@ use std::path::{Path, PathBuf};
 /// True for the name of a file or folder a run writes into its folder (and the figures and
 /// report made from it): what `--force` may clear before a new run there.
 pub fn is_run_file(name: &str) -> bool {
-    const FILES: [&str; 15] = [
+    const FILES: [&str; 18] = [
         "particles.pvd",
+        "group_tracks.csv",
+        "drop_axes.csv",
+        "rim_mode.csv",
         "metrics.csv",
         "steps.csv",
         "probes.csv",
@@ -122,6 +126,11 @@ pub struct Recorder<const D: usize> {
     axes_center: Option<Vector<D>>,
     tracks: Option<Series>,
     axes: Option<Series>,
+    /// Per output, for a surface-mode validation: time and the mode's amplitude (s, m).
+    pub rim_series: Vec<(f64, f64)>,
+    /// The rim whose mode a surface-mode validation measures.
+    pub rim: Option<RimMode<D>>,
+    rim_csv: Option<Series>,
     /// The metrics of the first output (the start of the whole run).
     pub first_metrics: Option<Metrics>,
     /// PPE iterations summed over the steps so far (a resumed run's earlier ones included).
@@ -131,7 +140,7 @@ pub struct Recorder<const D: usize> {
 }
 
 /// The time column's name and whether rows are kept by step (`true`) or time.
-const CARRIED: [(&str, bool); 7] = [
+const CARRIED: [(&str, bool); 8] = [
     ("metrics.csv", true),
     ("steps.csv", true),
     ("probes.csv", false),
@@ -139,6 +148,7 @@ const CARRIED: [(&str, bool); 7] = [
     ("groups.csv", false),
     ("group_tracks.csv", false),
     ("drop_axes.csv", false),
+    ("rim_mode.csv", false),
 ];
 
 /// What a resumed run carries over from the folder of its checkpoint: each series' kept rows
@@ -226,6 +236,41 @@ impl Earlier {
     }
 }
 
+/// The rim a surface-mode validation measures, taken from the case's particles at `t = 0`
+/// (built anew from the case, so that a resumed run measures the same particles).
+fn rim_of<const D: usize>(sim: &Simulation<D>) -> Result<Option<RimMode<D>>> {
+    let Some(ValidationSpec::SurfaceMode {
+        center,
+        radius,
+        mode,
+        ..
+    }) = &sim.case.validation
+    else {
+        return Ok(None);
+    };
+    let initial = crate::input::setup::build_particles::<D>(&sim.case, "")
+        .map_err(crate::error::Error::from)?;
+    let center = Vector::from_slice(center).expect("validated");
+    Ok(Some(RimMode::new(
+        &initial,
+        center,
+        *radius,
+        sim.l0(),
+        *mode,
+    )))
+}
+
+/// A series `file` in `out` with a time column and `columns`, if there are any.
+fn series_if(out: &Path, file: &str, columns: Option<Vec<String>>) -> Result<Option<Series>> {
+    match columns {
+        Some(cols) => {
+            let header: Vec<String> = std::iter::once("time".to_string()).chain(cols).collect();
+            Ok(Some(Series::create(&out.join(file), Some(&header))?))
+        }
+        None => Ok(None),
+    }
+}
+
 /// The numbers of a row of text fields (NaN where not a number).
 fn numbers(r: &[String]) -> Vec<f64> {
     r.iter().map(|x| x.parse().unwrap_or(f64::NAN)).collect()
@@ -246,63 +291,45 @@ impl<const D: usize> Recorder<D> {
                 )
             })
             .collect();
-        let header = |first: &str, rest: Vec<String>| -> Vec<String> {
-            std::iter::once(first.to_string()).chain(rest).collect()
-        };
-        let probes = if probe_points.is_empty() {
-            None
-        } else {
-            let h = header("time", probe_points.iter().map(|p| p.0.clone()).collect());
-            Some(Series::create(&out.join("probes.csv"), Some(&h))?)
-        };
+        let probes = series_if(
+            out,
+            "probes.csv",
+            (!probe_points.is_empty()).then(|| probe_points.iter().map(|p| p.0.clone()).collect()),
+        )?;
         let group_names = crate::input::setup::group_names(case);
-        let groups = if group_names.is_empty() {
-            None
-        } else {
-            let mut cols: Vec<String> = group_names
-                .iter()
-                .flat_map(|n| ["x", "y", "speed", "stray"].map(|c| format!("{n}_{c}")))
-                .collect();
-            cols.extend(
-                [
-                    "stray_fraction",
-                    "momentum_x",
-                    "momentum_y",
-                    "pressure_noise",
-                ]
-                .map(String::from),
-            );
-            Some(Series::create(
-                &out.join("groups.csv"),
-                Some(&header("time", cols)),
-            )?)
+        let group_columns = |fields: &[&str]| -> Option<Vec<String>> {
+            (!group_names.is_empty()).then(|| {
+                group_names
+                    .iter()
+                    .flat_map(|n| fields.iter().map(move |c| format!("{n}_{c}")))
+                    .collect()
+            })
         };
-        let tracks = if group_names.is_empty() {
-            None
-        } else {
-            let cols = group_names
-                .iter()
-                .flat_map(|n| ["x", "y"].map(|c| format!("{n}_{c}")))
-                .collect();
-            Some(Series::create(
-                &out.join("group_tracks.csv"),
-                Some(&header("time", cols)),
-            )?)
-        };
-        let axes = match &case.validation {
-            Some(ValidationSpec::EllipticDrop { .. }) => {
-                let h = header("time", vec!["a".into(), "b".into()]);
-                Some(Series::create(&out.join("drop_axes.csv"), Some(&h))?)
-            }
-            _ => None,
-        };
-        let front = match front_wall {
-            Some(_) => {
-                let h = header("time", vec!["front".into()]);
-                Some(Series::create(&out.join("front.csv"), Some(&h))?)
-            }
-            None => None,
-        };
+        let groups = group_columns(&["x", "y", "speed", "stray"]).map(|mut cols| {
+            let totals = [
+                "stray_fraction",
+                "momentum_x",
+                "momentum_y",
+                "pressure_noise",
+            ];
+            cols.extend(totals.map(String::from));
+            cols
+        });
+        let groups = series_if(out, "groups.csv", groups)?;
+        let tracks = series_if(out, "group_tracks.csv", group_columns(&["x", "y"]))?;
+        let drop = matches!(case.validation, Some(ValidationSpec::EllipticDrop { .. }));
+        let axes = series_if(
+            out,
+            "drop_axes.csv",
+            drop.then(|| vec!["a".into(), "b".into()]),
+        )?;
+        let rim = rim_of(sim)?;
+        let rim_csv = series_if(
+            out,
+            "rim_mode.csv",
+            rim.as_ref().map(|_| vec!["amplitude".into()]),
+        )?;
+        let front = series_if(out, "front.csv", front_wall.map(|_| vec!["front".into()]))?;
         Ok(Recorder {
             out: out.to_path_buf(),
             write_vtu: case.output.vtu,
@@ -326,6 +353,9 @@ impl<const D: usize> Recorder<D> {
             },
             tracks,
             axes,
+            rim_series: Vec::new(),
+            rim,
+            rim_csv,
             first_metrics: None,
             iterations: 0,
             min_pair_l0: f64::INFINITY,
@@ -375,7 +405,7 @@ impl<const D: usize> Recorder<D> {
 
     /// Writes the earlier run's rows and reloads the in-memory series from them.
     fn carry(&mut self, e: &Earlier) -> Result<()> {
-        let targets: [(&str, Option<&mut Series>); 7] = [
+        let targets: [(&str, Option<&mut Series>); 8] = [
             ("metrics.csv", Some(&mut self.metrics)),
             ("steps.csv", Some(&mut self.steps)),
             ("probes.csv", self.probes.as_mut()),
@@ -383,6 +413,7 @@ impl<const D: usize> Recorder<D> {
             ("groups.csv", self.groups.as_mut()),
             ("group_tracks.csv", self.tracks.as_mut()),
             ("drop_axes.csv", self.axes.as_mut()),
+            ("rim_mode.csv", self.rim_csv.as_mut()),
         ];
         for (file, series) in targets {
             if let Some(series) = series {
@@ -413,6 +444,9 @@ impl<const D: usize> Recorder<D> {
         }
         for r in e.rows("drop_axes.csv").iter().map(|r| numbers(r)) {
             self.axes_series.push((r[0], r[1], r[2]));
+        }
+        for r in e.rows("rim_mode.csv").iter().map(|r| numbers(r)) {
+            self.rim_series.push((r[0], r[1]));
         }
         Ok(())
     }
@@ -448,6 +482,13 @@ impl<const D: usize> Recorder<D> {
             self.axes_series.push((sim.time, a, b));
             if let Some(series) = &mut self.axes {
                 series.push(&[sim.time, a, b])?;
+            }
+        }
+        if let Some(rim) = &self.rim {
+            let a = rim.amplitude(&sim.particles);
+            self.rim_series.push((sim.time, a));
+            if let Some(series) = &mut self.rim_csv {
+                series.push(&[sim.time, a])?;
             }
         }
         if let Some(series) = &mut self.groups {
@@ -550,6 +591,7 @@ impl<const D: usize> Recorder<D> {
             &mut self.front,
             &mut self.tracks,
             &mut self.axes,
+            &mut self.rim_csv,
         ]
         .into_iter()
         .flatten()

@@ -29,6 +29,15 @@ fn default_threshold() -> f64 {
     0.2
 }
 
+impl Default for Distribution {
+    fn default() -> Self {
+        Distribution {
+            beta: super::default_beta(),
+            threshold: default_threshold(),
+        }
+    }
+}
+
 impl Detector for Distribution {
     const NAME: &'static str = "distribution";
 
