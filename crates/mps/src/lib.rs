@@ -11,7 +11,9 @@
 //! - [`simulation`]: the time step as named stages, the pressure solver, breakdown;
 //! - [`analysis`]: metrics, groups, validation, the run summary, comparisons;
 //! - [`io`]: atomic writes, VTU/PVD, checkpoints, CSV series;
-//! - [`run`]: the run loop and its recorder, on top of all of them.
+//! - [`run`]: the run loop and its recorder, on top of all of them;
+//! - [`distributed`]: the distributed run's partition and (feature `mpi`) its hypre solve,
+//!   on top beside `run`.
 
 // `!(x > 0.0)` is used on purpose: it rejects NaN as well as non-positive values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -19,6 +21,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
+pub mod distributed;
 pub mod error;
 pub mod input;
 pub mod io;

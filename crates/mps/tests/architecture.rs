@@ -46,6 +46,17 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "error",
         ],
     ),
+    (
+        "distributed",
+        &[
+            "particles",
+            "numerics",
+            "linalg",
+            "input",
+            "simulation",
+            "error",
+        ],
+    ),
 ];
 
 fn src() -> PathBuf {

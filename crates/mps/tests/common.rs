@@ -42,3 +42,34 @@ pub fn column(path: &std::path::Path, name: &str) -> Vec<f64> {
 pub fn sim3(name: &str, set: &[(&str, &str)]) -> Simulation<3> {
     Simulation::<3>::new(example(name, set), name).expect("builds")
 }
+
+/// faer's sparse Cholesky solution of a PPE system (the reference the iterative solvers are
+/// checked against).
+pub fn direct_solve(sys: &mps::numerics::ppe::PressureSystem) -> Vec<f64> {
+    use faer::linalg::solvers::Solve;
+    use faer::sparse::{SparseColMat, Triplet};
+    let a = &sys.matrix;
+    let n = a.n();
+    let mut trip = Vec::with_capacity(a.nnz());
+    for i in 0..n {
+        let (c, v) = a.row(i);
+        for (&j, &x) in c.iter().zip(v) {
+            trip.push(Triplet::new(i, j as usize, x));
+        }
+    }
+    let m = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &trip).unwrap();
+    let llt = m.sp_cholesky(faer::Side::Lower).expect("the PPE is SPD");
+    let x = llt.solve(faer::Mat::from_fn(n, 1, |i, _| sys.rhs[i]));
+    (0..n).map(|i| x[(i, 0)]).collect()
+}
+
+/// `|x - exact| / |exact|` in the 2-norm.
+pub fn relative_error(x: &[f64], exact: &[f64]) -> f64 {
+    let d = x
+        .iter()
+        .zip(exact)
+        .map(|(p, q)| (p - q) * (p - q))
+        .sum::<f64>();
+    let n = exact.iter().map(|v| v * v).sum::<f64>();
+    (d / n).sqrt()
+}

@@ -315,29 +315,13 @@ fn restart_from_checkpoint_is_bit_identical() {
 /// tolerance (relative error in the pressure below 1e-6 for a 1e-10 residual).
 #[test]
 fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
-    use faer::linalg::solvers::Solve;
-    use faer::sparse::{SparseColMat, Triplet};
     use mps::linalg::{Amg, AmgParams};
 
-    let mut s = sim("dam_break", &[("scheme.name", "MPS-HS-GC-DS")]);
-    while s.time < 0.15 {
-        s.step(f64::INFINITY).expect("dam break runs");
-    }
-    let sys = s.last_system.take().expect("kept");
+    let sys = mps::distributed::check::dam_break_ppe();
     let a = &sys.matrix;
     let n = a.n();
     assert!(n > 500, "{n} unknowns");
-    let mut trip = Vec::with_capacity(a.nnz());
-    for i in 0..n {
-        let (c, v) = a.row(i);
-        for (&j, &x) in c.iter().zip(v) {
-            trip.push(Triplet::new(i, j as usize, x));
-        }
-    }
-    let m = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &trip).unwrap();
-    let llt = m.sp_cholesky(faer::Side::Lower).expect("the PPE is SPD");
-    let exact = llt.solve(faer::Mat::from_fn(n, 1, |i, _| sys.rhs[i]));
-    let exact: Vec<f64> = (0..n).map(|i| exact[(i, 0)]).collect();
+    let exact = common::direct_solve(&sys);
     let norm = exact.iter().map(|v| v * v).sum::<f64>().sqrt();
     assert!(norm > 0.0);
 
@@ -366,13 +350,7 @@ fn every_solver_agrees_with_a_sparse_direct_solve_on_a_dam_break() {
     let st = mps::linalg::dilu_cg(a, &sys.rhs, &mut x, &dilu, 1e-10, 20_000).expect("dilu-cg");
     results.push(("dilu-cg", x, st.iterations));
     for (name, x, it) in &results {
-        let err = x
-            .iter()
-            .zip(&exact)
-            .map(|(p, q)| (p - q) * (p - q))
-            .sum::<f64>()
-            .sqrt()
-            / norm;
+        let err = common::relative_error(x, &exact);
         assert!(
             err < 1e-6,
             "{name}: relative error {err:.2e} ({it} iterations)"

@@ -1,0 +1,32 @@
+//! The distributed run (issue 16, in progress): the pieces that let a run span processes.
+//!
+//! - [`partition`]: cells ordered along a Morton curve and cut into pieces of equal particle
+//!   count, the halo of each piece, the imbalance that calls for rebalancing; plain data,
+//!   built and tested without MPI;
+//! - `hypre` (feature `mpi`): the PPE solved by hypre's BoomerAMG-preconditioned PCG through
+//!   its IJ interface, each process owning a contiguous block of rows.
+//!
+//! On top, beside `run`: uses `particles`, `numerics`, `linalg`, `input`, `simulation`;
+//! nothing else of the crate uses it.
+
+#[cfg(feature = "mpi")]
+pub mod hypre;
+pub mod partition;
+
+/// The system the distributed checks solve.
+pub mod check {
+    use crate::numerics::ppe::PressureSystem;
+
+    /// The PPE of the dam break (MPS-HS-GC-DS) at its first step past t = 0.15 s: free
+    /// surface, walls and a moving front; deterministic, so every process builds the same.
+    pub fn dam_break_ppe() -> PressureSystem {
+        let text = crate::input::examples::example("dam_break").expect("built in");
+        let set = [("scheme.name".to_string(), "MPS-HS-GC-DS".to_string())];
+        let case = crate::input::Case::from_str_named(text, "dam_break", &set).expect("valid");
+        let mut s = crate::simulation::Simulation::<2>::new(case, "dam_break").expect("builds");
+        while s.time < 0.15 {
+            s.step(f64::INFINITY).expect("the dam break runs");
+        }
+        s.last_system.take().expect("the last system is kept")
+    }
+}

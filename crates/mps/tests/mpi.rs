@@ -1,0 +1,57 @@
+//! The distributed PPE (feature `mpi`): the dam break's mid-run system solved by hypre's
+//! BoomerAMG-PCG over 1, 2 and 4 MPI processes (`mpirun --oversubscribe`) agrees with faer's
+//! sparse Cholesky solve of the same system to the solver tolerance.
+#![cfg(feature = "mpi")]
+
+mod common;
+use std::process::Command;
+
+/// `mpirun` with the flags this machine needs (as root: `--allow-run-as-root`).
+fn mpirun(np: usize) -> Command {
+    let mut c = Command::new("mpirun");
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false);
+    if root {
+        c.arg("--allow-run-as-root");
+    }
+    c.args(["--oversubscribe", "-np", &np.to_string()]);
+    c
+}
+
+#[test]
+fn the_distributed_ppe_agrees_with_a_direct_solve_on_1_2_and_4_processes() {
+    let sys = mps::distributed::check::dam_break_ppe();
+    let exact = common::direct_solve(&sys);
+    let norm = exact.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(exact.len() > 500 && norm > 0.0);
+    let dir = std::env::temp_dir().join(format!("mps_mpi_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for np in [1, 2, 4] {
+        let file = dir.join(format!("x{np}.bin"));
+        let out = mpirun(np)
+            .arg(env!("CARGO_BIN_EXE_mps-mpi-ppe"))
+            .arg(&file)
+            .output()
+            .expect("mpirun starts (openmpi-bin)");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{np} processes: {text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        eprintln!("{}", text.trim());
+        let bytes = std::fs::read(&file).unwrap();
+        let x: Vec<f64> = bytes
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        assert_eq!(x.len(), exact.len());
+        let err = common::relative_error(&x, &exact);
+        assert!(err < 1e-6, "{np} processes: relative error {err:.2e}");
+        eprintln!("{np} processes: relative error against faer {err:.2e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
