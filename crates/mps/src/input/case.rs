@@ -449,6 +449,26 @@ pub struct FluidSpec {
     /// Group label for diagnostics (e.g. settling groups).
     #[serde(default)]
     pub group: Option<String>,
+    /// How the region's particles are placed: on the case's lattice (default) or, for a
+    /// circle in 2D, on concentric rings.
+    #[serde(default)]
+    pub arrangement: Arrangement,
+}
+
+/// How a fluid region's particles are placed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Arrangement {
+    /// On the lattice of spacing l0 shared by every region and wall.
+    #[default]
+    Lattice,
+    /// A circle in 2D on concentric rings of spacing `h = R / round(R / l0)`: ring `k` at
+    /// radius `(k + 1/2) h` holds `round(2 pi (k + 1/2))` particles, every other ring turned
+    /// by half a step, so each particle keeps an area of about `h^2` and the edge is a
+    /// smooth circle, not the lattice's staircase (whose corners seed the surface modes
+    /// 4, 8, 12, ... of a disc under tension: docs/decisions.md, "The rotating disc is
+    /// unstable").
+    Rings,
 }
 
 /// A solid wall region.

@@ -1,7 +1,9 @@
 //! Checks of a parsed case that the types cannot express: signs, lengths, references and
 //! ranges. Every error names the file, the field and the value.
 
-use super::case::{Case, FluidSpec, PressureSpec, ShapeSpec, ValidationSpec, VelocitySpec};
+use super::case::{
+    Arrangement, Case, FluidSpec, PressureSpec, ShapeSpec, ValidationSpec, VelocitySpec,
+};
 use super::expression::Expression;
 use super::shapes::shape_bounds;
 use crate::error::CaseError;
@@ -357,6 +359,14 @@ impl Case {
             );
         }
         c.shape(&at("shape"), &f.shape, false)?;
+        if f.arrangement == Arrangement::Rings {
+            let circle = matches!(f.shape, ShapeSpec::Circle { .. });
+            let alone = !f.overrides && !self.fluid[k + 1..].iter().any(|g| g.overrides);
+            if c.d != 2 || !circle || !alone {
+                let msg = "rings need a circle in 2D that no other region overrides";
+                return c.fail(&at("arrangement"), "\"rings\"", msg);
+            }
+        }
         let (lo, hi) = shape_bounds(&f.shape);
         let (dmin, dmax) = (&self.domain.min, &self.domain.max);
         // An STL region's extent is known once its file is read (the set-up clips it).
