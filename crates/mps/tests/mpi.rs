@@ -1,6 +1,7 @@
 //! The distributed PPE (feature `mpi`): the dam break's mid-run system solved by hypre's
 //! BoomerAMG-PCG over 1, 2 and 4 MPI processes (`mpirun --oversubscribe`) agrees with faer's
-//! sparse Cholesky solve of the same system to the solver tolerance.
+//! sparse Cholesky solve of the same system to the solver tolerance; particles migrate and
+//! exchange halos across processes as the serial partition says.
 #![cfg(feature = "mpi")]
 
 mod common;
@@ -54,4 +55,25 @@ fn the_distributed_ppe_agrees_with_a_direct_solve_on_1_2_and_4_processes() {
         eprintln!("{np} processes: relative error against faer {err:.2e}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Particles scattered over 1, 2 and 4 processes migrate to the owners of their cells under
+/// the Morton cuts (none lost or duplicated, the pieces those of the serial partition),
+/// exchange halos equal to the serial ones, and migrate again after crossing the cuts
+/// (`mps-mpi-exchange` checks and prints OK).
+#[test]
+fn particles_migrate_and_exchange_halos_on_1_2_and_4_processes() {
+    for np in [1, 2, 4] {
+        let out = mpirun(np)
+            .arg(env!("CARGO_BIN_EXE_mps-mpi-exchange"))
+            .output()
+            .expect("mpirun starts (openmpi-bin)");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success() && text.starts_with("OK"),
+            "{np} processes: {text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        eprintln!("{}", text.trim());
+    }
 }

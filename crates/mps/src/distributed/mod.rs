@@ -3,12 +3,16 @@
 //! - [`partition`]: cells ordered along a Morton curve and cut into pieces of equal particle
 //!   count, the halo of each piece, the imbalance that calls for rebalancing; plain data,
 //!   built and tested without MPI;
+//! - `exchange` (feature `mpi`): migration of particles to the owner of their cell and the
+//!   halo exchange, over MPI;
 //! - `hypre` (feature `mpi`): the PPE solved by hypre's BoomerAMG-preconditioned PCG through
 //!   its IJ interface, each process owning a contiguous block of rows.
 //!
 //! On top, beside `run`: uses `particles`, `numerics`, `linalg`, `input`, `simulation`;
 //! nothing else of the crate uses it.
 
+#[cfg(feature = "mpi")]
+pub mod exchange;
 #[cfg(feature = "mpi")]
 pub mod hypre;
 pub mod partition;

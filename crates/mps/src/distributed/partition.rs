@@ -28,6 +28,94 @@ pub fn morton<const D: usize>(c: [u64; D]) -> u64 {
     key
 }
 
+/// The cells of a decomposition: side `cell` (m) from the lower corner `lo` (m) of every
+/// particle (the same on every process: a global minimum).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MortonGrid<const D: usize> {
+    /// Lower corner (m).
+    pub lo: [f64; D],
+    /// Cell side (m), at least the interaction radius.
+    pub cell: f64,
+}
+
+impl<const D: usize> MortonGrid<D> {
+    /// The grid over `pos` (its own lower corner); `None` for no particle or a non-positive
+    /// or non-finite cell size.
+    pub fn over(pos: &[Vector<D>], cell: f64) -> Option<Self> {
+        if pos.is_empty() || !(cell > 0.0) || !cell.is_finite() {
+            return None;
+        }
+        let mut lo = [f64::INFINITY; D];
+        for x in pos {
+            for a in 0..D {
+                lo[a] = lo[a].min(x[a]);
+            }
+        }
+        Some(MortonGrid { lo, cell })
+    }
+
+    /// Integer cell coordinates of `x` (clamped to the key's range).
+    fn cell_of(&self, x: &Vector<D>) -> [i64; D] {
+        let limit = ((1u64 << bits(D)) - 1) as f64;
+        let mut c = [0i64; D];
+        for a in 0..D {
+            c[a] = ((x[a] - self.lo[a]) / self.cell).floor().clamp(0.0, limit) as i64;
+        }
+        c
+    }
+
+    /// Morton key of the cell holding `x`.
+    pub fn key(&self, x: &Vector<D>) -> u64 {
+        morton(self.cell_of(x).map(|c| c as u64))
+    }
+
+    /// Keys of the cell holding `x` and of its neighbour cells (3^D, fewer at the grid's
+    /// lower edges): every particle within one cell side of `x` lies in one of them.
+    pub fn neighbour_keys(&self, x: &Vector<D>) -> Vec<u64> {
+        let c = self.cell_of(x);
+        let mut out = Vec::with_capacity(3usize.pow(D as u32));
+        for code in 0..3usize.pow(D as u32) {
+            let (mut rest, mut n, mut inside) = (code, [0u64; D], true);
+            for a in 0..D {
+                let v = c[a] + (rest % 3) as i64 - 1;
+                rest /= 3;
+                inside &= v >= 0;
+                n[a] = v.max(0) as u64;
+            }
+            if inside {
+                out.push(morton(n));
+            }
+        }
+        out
+    }
+}
+
+/// Where the Morton curve is cut into `pieces`: piece `p` owns the keys from `cuts[p]` up
+/// to (not including) `cuts[p + 1]`, `cuts[pieces] = u64::MAX`. From every particle's key,
+/// sorted: each cut at the first cell boundary past `k N / pieces` (a cell is never split).
+pub fn splitters(sorted_keys: &[u64], pieces: usize) -> Vec<u64> {
+    let n = sorted_keys.len();
+    let mut cuts = vec![0u64];
+    let mut piece = 0usize;
+    for (k, &key) in sorted_keys.iter().enumerate() {
+        let boundary = k > 0 && sorted_keys[k - 1] != key;
+        while boundary && piece + 1 < pieces && k * pieces >= (piece + 1) * n {
+            cuts.push(key);
+            piece += 1;
+        }
+    }
+    while cuts.len() < pieces {
+        cuts.push(u64::MAX);
+    }
+    cuts.push(u64::MAX);
+    cuts
+}
+
+/// The piece that owns `key` under `cuts` (from [`splitters`]).
+pub fn owner_of(cuts: &[u64], key: u64) -> u32 {
+    (cuts[1..cuts.len() - 1].partition_point(|&c| c <= key)) as u32
+}
+
 /// The pieces of a decomposition: the owning piece of every particle and each piece's size.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Partition {
@@ -39,45 +127,25 @@ pub struct Partition {
 
 impl Partition {
     /// Cells of side `cell` (m) along the Morton curve, cut into `pieces` runs of about equal
-    /// particle count (each cut at the first cell boundary past `k N / pieces`). `None` for
-    /// no particle, no piece, or a non-positive or non-finite cell size.
+    /// particle count ([`splitters`]). `None` for no particle, no piece, or a non-positive or
+    /// non-finite cell size.
     pub fn along_morton<const D: usize>(
         pos: &[Vector<D>],
         cell: f64,
         pieces: usize,
     ) -> Option<Partition> {
-        if pos.is_empty() || pieces == 0 || !(cell > 0.0) || !cell.is_finite() {
+        let grid = MortonGrid::over(pos, cell)?;
+        if pieces == 0 {
             return None;
         }
-        let mut lo = [f64::INFINITY; D];
-        for x in pos {
-            for a in 0..D {
-                lo[a] = lo[a].min(x[a]);
-            }
-        }
-        let limit = ((1u64 << bits(D)) - 1) as f64;
-        let key = |x: &Vector<D>| {
-            let mut c = [0u64; D];
-            for a in 0..D {
-                c[a] = ((x[a] - lo[a]) / cell).floor().clamp(0.0, limit) as u64;
-            }
-            morton(c)
-        };
-        let mut order: Vec<(u64, usize)> =
-            pos.iter().enumerate().map(|(i, x)| (key(x), i)).collect();
-        order.sort_unstable();
-        let n = pos.len();
-        let mut owner = vec![0u32; n];
+        let keys: Vec<u64> = pos.iter().map(|x| grid.key(x)).collect();
+        let mut sorted = keys.clone();
+        sorted.sort_unstable();
+        let cuts = splitters(&sorted, pieces);
+        let owner: Vec<u32> = keys.iter().map(|&k| owner_of(&cuts, k)).collect();
         let mut sizes = vec![0usize; pieces];
-        let mut piece = 0usize;
-        for (k, &(cell_key, i)) in order.iter().enumerate() {
-            // Move to the next piece at a cell boundary once this one has its share.
-            let boundary = k > 0 && order[k - 1].0 != cell_key;
-            while boundary && piece + 1 < pieces && k * pieces >= (piece + 1) * n {
-                piece += 1;
-            }
-            owner[i] = piece as u32;
-            sizes[piece] += 1;
+        for &o in &owner {
+            sizes[o as usize] += 1;
         }
         Some(Partition { owner, sizes })
     }
@@ -137,6 +205,22 @@ mod tests {
             }
         }
         p
+    }
+
+    /// Every point within one cell side of `x` lies in one of `x`'s neighbour cells.
+    #[test]
+    fn neighbour_cells_hold_every_close_point() {
+        let pos = block();
+        let grid = MortonGrid::over(&pos, 0.031).unwrap();
+        for (k, x) in pos.iter().enumerate().step_by(7) {
+            let near = grid.neighbour_keys(x);
+            assert!(near.len() <= 9 && near.contains(&grid.key(x)));
+            for y in pos.iter().skip(k % 5).step_by(11) {
+                if (*y - *x).norm() < 0.031 {
+                    assert!(near.contains(&grid.key(y)), "{x:?} {y:?}");
+                }
+            }
+        }
     }
 
     #[test]
