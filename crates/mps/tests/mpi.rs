@@ -7,6 +7,20 @@
 mod common;
 use std::process::Command;
 
+/// The path of a check program, an example of this crate built by `cargo build --release
+/// -p mps --features mpi --examples` (`.ci/run` does it before these tests).
+fn example(name: &str) -> std::path::PathBuf {
+    let exe = std::env::current_exe().expect("test binary");
+    let dir = exe.parent().and_then(|d| d.parent()).expect("target dir");
+    let path = dir.join("examples").join(name);
+    assert!(
+        path.exists(),
+        "{} is missing: build it first with `cargo build --release -p mps --features mpi --examples`",
+        path.display()
+    );
+    path
+}
+
 /// `mpirun` with the flags this machine needs (as root: `--allow-run-as-root`).
 fn mpirun(np: usize) -> Command {
     let mut c = Command::new("mpirun");
@@ -33,7 +47,7 @@ fn the_distributed_ppe_agrees_with_a_direct_solve_on_1_2_and_4_processes() {
     for np in [1, 2, 4] {
         let file = dir.join(format!("x{np}.bin"));
         let out = mpirun(np)
-            .arg(env!("CARGO_BIN_EXE_mps-mpi-ppe"))
+            .arg(example("mps-mpi-ppe"))
             .arg(&file)
             .output()
             .expect("mpirun starts (openmpi-bin)");
@@ -65,7 +79,7 @@ fn the_distributed_ppe_agrees_with_a_direct_solve_on_1_2_and_4_processes() {
 fn particles_migrate_and_exchange_halos_on_1_2_and_4_processes() {
     for np in [1, 2, 4] {
         let out = mpirun(np)
-            .arg(env!("CARGO_BIN_EXE_mps-mpi-exchange"))
+            .arg(example("mps-mpi-exchange"))
             .output()
             .expect("mpirun starts (openmpi-bin)");
         let text = String::from_utf8_lossy(&out.stdout);
