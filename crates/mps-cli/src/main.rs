@@ -333,7 +333,26 @@ fn print_results(s: &RunSummary, out: &Path) {
 }
 
 fn cmd_run(a: RunArgs) -> CmdResult {
+    refuse_mpirun()?;
     in_pool(a.threads, || run_in_pool(a))
+}
+
+/// `mps run` started by `mpirun` as one of several processes: each would run the whole case
+/// into the same folder. The distributed run is not built into `mps` yet (README,
+/// "Distributed run"), so that is refused with one line. The launchers' environment:
+/// `OMPI_COMM_WORLD_SIZE` (Open MPI), `PMI_SIZE` (MPICH, Intel MPI, Slurm).
+fn refuse_mpirun() -> Result<(), Failure> {
+    for var in ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"] {
+        let n = std::env::var(var)
+            .ok()
+            .and_then(|v| v.trim().parse::<u64>().ok());
+        if let Some(n) = n.filter(|&n| n > 1) {
+            return Err(bad(format!(
+                "mps run was started as one of {n} MPI processes ({var} = {n}), but this mps runs a case on one process (the distributed run is in progress: README, \"Distributed run\"); every process would write the same folder: run it without mpirun"
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// `mps run` on the run's thread pool.

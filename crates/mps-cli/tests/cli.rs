@@ -714,3 +714,41 @@ fn bench_against_a_baseline_prints_ratios() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `mps run` started by an MPI launcher as several processes (Open MPI's or PMI's size in the
+/// environment) is refused with one line and exit 1, before anything is written: each copy
+/// would run the whole case into the same folder. One process is a plain run.
+#[test]
+fn a_run_started_as_several_mpi_processes_is_refused() {
+    let dir = std::env::temp_dir().join(format!("mps_cli_mpirun_{}", std::process::id()));
+    for var in ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"] {
+        let out = mps()
+            .env(var, "4")
+            .args(["run", "--example", "hydrostatic", "-q", "--out"])
+            .arg(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("4 MPI processes") && err.contains(var),
+            "{err}"
+        );
+        assert!(!dir.exists());
+    }
+    succeed(
+        mps()
+            .env("OMPI_COMM_WORLD_SIZE", "1")
+            .args(["run", "--example", "hydrostatic", "-q"])
+            .args([
+                "--set",
+                "time.end=0.002",
+                "--set",
+                "output.vtu=false",
+                "--out",
+            ])
+            .arg(&dir),
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
