@@ -454,6 +454,28 @@ mod tests {
             }
         }
         assert!((outer - (radius - 0.5 * h)).abs() < 1e-12);
+        // The number density away from the centre and the edge is n0 on average (within
+        // 0.5 %), so the drift term sees no compression in a disc at rest (R = 12 h here).
+        let big = disc("arrangement = \"rings\"")
+            .replace("radius = 0.3", "radius = 0.48")
+            .replace("spacing = 0.05", "spacing = 0.04");
+        let case = Case::from_str_named(&big, "d", &[]).unwrap();
+        let p = build_particles::<2>(&case, "d").unwrap();
+        let k = crate::numerics::kernel::Kernels::new::<2>(0.04, 2.1, 3.1);
+        let nl = crate::particles::neighbors::build_neighbor_list(&p.position, k.grad.re);
+        let (mut sum, mut count) = (0.0, 0.0);
+        for i in 0..p.len() {
+            let r = (p.position[i] - c).norm();
+            if r > 0.12 && r < 0.32 {
+                sum += crate::numerics::operators::number_density(i, &p.position, &nl, k.grad.re);
+                count += 1.0;
+            }
+        }
+        let mean = sum / count / k.grad.n0;
+        assert!(
+            count > 100.0 && (mean - 1.0).abs() < 0.005,
+            "n/n0 = {mean} over {count}"
+        );
         let square = crate::input::case::tests::MINIMAL.replace(
             "max = [0.5, 0.5] }",
             "max = [0.5, 0.5] }\narrangement = \"rings\"",
