@@ -62,6 +62,7 @@ fn uniform_compression_gives_positive_pressure() {
         let reference = PressureReference {
             position: None,
             value: 0.0,
+            open_elsewhere: false,
         };
         let sys = assemble(
             &f,
@@ -112,6 +113,7 @@ fn ppe_matrix_is_symmetric_mid_run() {
     let reference = PressureReference {
         position: None,
         value: 0.0,
+        open_elsewhere: false,
     };
     let sys = assemble(&f, &p.pressure, &k, &s.scheme, s.gravity, 1e-4, &reference);
     let maxv = sys.matrix.val.iter().fold(0.0f64, |a, v| a.max(v.abs()));

@@ -75,41 +75,56 @@ fn all_to_all<const D: usize>(
     world: &SimpleCommunicator,
     outgoing: &[Vec<Record<D>>],
 ) -> Vec<Record<D>> {
-    let size = world.size() as usize;
-    let mut flat = Vec::new();
-    let mut counts = vec![0i32; size];
-    for (q, list) in outgoing.iter().enumerate() {
-        for r in list {
-            r.write(&mut flat);
-        }
-        counts[q] = (list.len() * Record::<D>::WIDTH) as i32;
-    }
-    let mut incoming_counts = vec![0i32; size];
-    world.all_to_all_into(&counts[..], &mut incoming_counts[..]);
-    let displs = |c: &[i32]| -> Vec<i32> {
-        c.iter()
-            .scan(0, |acc, &x| {
-                let d = *acc;
-                *acc += x;
-                Some(d)
-            })
-            .collect()
-    };
-    let total: i32 = incoming_counts.iter().sum();
-    let mut received = vec![0.0f64; total as usize];
-    {
-        let send = Partition::new(&flat[..], &counts[..], displs(&counts));
-        let mut recv = PartitionMut::new(
-            &mut received[..],
-            &incoming_counts[..],
-            displs(&incoming_counts),
-        );
-        world.all_to_all_varcount_into(&send, &mut recv);
-    }
+    let flat: Vec<Vec<f64>> = outgoing
+        .iter()
+        .map(|list| {
+            let mut out = Vec::with_capacity(list.len() * Record::<D>::WIDTH);
+            for r in list {
+                r.write(&mut out);
+            }
+            out
+        })
+        .collect();
+    let (received, _) = exchange_numbers(world, &flat);
     received
         .chunks_exact(Record::<D>::WIDTH)
         .map(Record::read)
         .collect()
+}
+
+/// Exclusive prefix sums of `c`.
+fn displacements(c: &[i32]) -> Vec<i32> {
+    c.iter()
+        .scan(0, |acc, &x| {
+            let d = *acc;
+            *acc += x;
+            Some(d)
+        })
+        .collect()
+}
+
+/// Sends the numbers `outgoing[q]` to process `q`; returns what every process sent here,
+/// concatenated in process order, and how many numbers came from each (collective).
+pub fn exchange_numbers(
+    world: &SimpleCommunicator,
+    outgoing: &[Vec<f64>],
+) -> (Vec<f64>, Vec<usize>) {
+    let size = world.size() as usize;
+    let counts: Vec<i32> = (0..size)
+        .map(|q| outgoing.get(q).map_or(0, |v| v.len()) as i32)
+        .collect();
+    let flat: Vec<f64> = outgoing.concat();
+    let mut incoming = vec![0i32; size];
+    world.all_to_all_into(&counts[..], &mut incoming[..]);
+    let total: i32 = incoming.iter().sum();
+    let mut received = vec![0.0f64; total as usize];
+    {
+        let send = Partition::new(&flat[..], &counts[..], displacements(&counts));
+        let mut recv =
+            PartitionMut::new(&mut received[..], &incoming[..], displacements(&incoming));
+        world.all_to_all_varcount_into(&send, &mut recv);
+    }
+    (received, incoming.iter().map(|&c| c as usize).collect())
 }
 
 /// The grid every process shares: cells of side `cell` (m) from the lowest position over all
@@ -137,21 +152,20 @@ pub fn global_cuts<const D: usize>(
     local: &[Record<D>],
 ) -> Vec<u64> {
     let keys: Vec<u64> = local.iter().map(|r| grid.key(&r.position)).collect();
+    cuts_of_keys(world, &keys)
+}
+
+/// The Morton cuts into one piece per process from the cell keys of every process's
+/// particles, `keys` this process's (collective).
+pub fn cuts_of_keys(world: &SimpleCommunicator, keys: &[u64]) -> Vec<u64> {
     let size = world.size() as usize;
     let mut counts = vec![0i32; size];
     world.all_gather_into(&(keys.len() as i32), &mut counts[..]);
-    let displs: Vec<i32> = counts
-        .iter()
-        .scan(0, |acc, &x| {
-            let d = *acc;
-            *acc += x;
-            Some(d)
-        })
-        .collect();
+    let displs = displacements(&counts);
     let mut all = vec![0u64; counts.iter().sum::<i32>() as usize];
     {
         let mut part = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
-        world.all_gather_varcount_into(&keys[..], &mut part);
+        world.all_gather_varcount_into(keys, &mut part);
     }
     all.sort_unstable();
     splitters(&all, size)

@@ -16,6 +16,8 @@ pub mod exchange;
 #[cfg(feature = "mpi")]
 pub mod hypre;
 pub mod partition;
+#[cfg(feature = "mpi")]
+pub mod step;
 
 /// The system the distributed checks solve.
 pub mod check {

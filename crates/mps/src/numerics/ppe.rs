@@ -53,6 +53,9 @@ pub struct PressureReference<const D: usize> {
     pub position: Option<Vector<D>>,
     /// Pressure there (Pa).
     pub value: f64,
+    /// Another process of a distributed run holds a Dirichlet row: the domain is not closed
+    /// even where this process's rows have none.
+    pub open_elsewhere: bool,
 }
 
 impl<const D: usize> PressureReference<D> {
@@ -238,7 +241,8 @@ pub fn assemble_into<const D: usize>(
         .into_par_iter()
         .map(|i| is_dirichlet(i, v, k.lap.re))
         .collect();
-    let closed = !(0..n).any(|i| dirichlet[i] && v.kind[i] != Kind::Dummy);
+    let closed =
+        !reference.open_elsewhere && !(0..n).any(|i| dirichlet[i] && v.kind[i] != Kind::Dummy);
     let level_particle = if closed { reference.particle(v) } else { None };
     if let Some(r) = level_particle {
         dirichlet[r] = true;
@@ -344,6 +348,7 @@ mod tests {
         let reference = PressureReference {
             position: Some(Vector([0.07, 0.14])),
             value: 1234.0,
+            open_elsewhere: false,
         };
         let zero = vec![0.0; v.pos.len()];
         let g = Vector([0.0, 0.0]);
@@ -399,6 +404,7 @@ mod tests {
         let level = PressureReference {
             position: None,
             value: 0.0,
+            open_elsewhere: false,
         };
         let incompressible = solve(&assemble(&v, &zero, &k, &s, g, dt, &level));
         let centre = 7 * 15 + 7;

@@ -207,6 +207,52 @@ macro_rules! particle_fields {
                 )*
             }
 
+            /// Numbers per particle in [`Self::pack`].
+            pub const fn packed_width() -> usize {
+                0 $( + <$ty as Packed>::WIDTH )*
+            }
+
+            /// Appends particle `i`'s fields as numbers (to send it to another process);
+            /// fields holding particle indices carry the ids they point to instead.
+            pub fn pack(&self, i: usize, out: &mut Vec<f64>) {
+                $(
+                    #[allow(unused_mut)]
+                    let mut v = self.$name[i];
+                    $( stringify!($remap); v = id_at(&self.id, v); )?
+                    v.pack(out);
+                )*
+            }
+
+            /// Appends a particle from a row of [`Self::pack`]; fields holding particle
+            /// indices keep the ids until [`Self::ids_to_indices`]. `None` when the row is
+            /// too short or a value is out of range.
+            pub fn push_packed(&mut self, row: &[f64]) -> Option<()> {
+                let mut at = 0;
+                $(
+                    let w = <$ty as Packed>::WIDTH;
+                    let v = <$ty as Packed>::unpack(row.get(at..at + w)?)?;
+                    at += w;
+                    self.$name.push(v);
+                )*
+                let _ = at;
+                Some(())
+            }
+
+            /// Turns the ids held in index fields (after [`Self::push_packed`]) into the
+            /// indices of the particles with those ids here, [`NONE`] where there is none.
+            pub fn ids_to_indices(&mut self) {
+                let index: std::collections::HashMap<u32, u32> =
+                    self.id.iter().enumerate().map(|(k, &id)| (id, k as u32)).collect();
+                $( $(
+                    stringify!($remap);
+                    for x in &mut self.$name {
+                        if *x != NONE {
+                            *x = index.get(x).copied().unwrap_or(NONE);
+                        }
+                    }
+                )? )*
+            }
+
             /// Makes `self` a copy of `other`, reusing the memory of `self`'s arrays.
             pub fn copy_from(&mut self, other: &Self) {
                 $( self.$name.clone_from(&other.$name); )*
@@ -251,6 +297,83 @@ macro_rules! particle_fields {
             }
         }
     };
+}
+
+/// How a field's value travels between processes: as `WIDTH` numbers.
+pub trait Packed: Sized + Copy {
+    /// Numbers per value.
+    const WIDTH: usize;
+    /// Appends the value's numbers.
+    fn pack(&self, out: &mut Vec<f64>);
+    /// The value from its numbers; `None` when out of range.
+    fn unpack(v: &[f64]) -> Option<Self>;
+}
+
+impl<const D: usize> Packed for Vector<D> {
+    const WIDTH: usize = D;
+    fn pack(&self, out: &mut Vec<f64>) {
+        out.extend_from_slice(&self.0);
+    }
+    fn unpack(v: &[f64]) -> Option<Self> {
+        Vector::from_slice(v)
+    }
+}
+
+/// Numbers and integers travel as their one number (exact in an `f64` up to 2^53).
+macro_rules! packed_number {
+    ($($t:ty),*) => {$(
+        impl Packed for $t {
+            const WIDTH: usize = 1;
+            fn pack(&self, out: &mut Vec<f64>) {
+                out.push(*self as f64);
+            }
+            fn unpack(v: &[f64]) -> Option<Self> {
+                let x = *v.first()?;
+                let back = x as $t;
+                (back as f64 == x).then_some(back)
+            }
+        }
+    )*};
+}
+packed_number!(u16, u32);
+
+impl Packed for f64 {
+    const WIDTH: usize = 1;
+    fn pack(&self, out: &mut Vec<f64>) {
+        out.push(*self);
+    }
+    fn unpack(v: &[f64]) -> Option<Self> {
+        v.first().copied()
+    }
+}
+
+impl Packed for Kind {
+    const WIDTH: usize = 1;
+    fn pack(&self, out: &mut Vec<f64>) {
+        out.push(*self as u8 as f64);
+    }
+    fn unpack(v: &[f64]) -> Option<Self> {
+        <Kind as ColumnValue>::from_components(v)
+    }
+}
+
+impl Packed for bool {
+    const WIDTH: usize = 1;
+    fn pack(&self, out: &mut Vec<f64>) {
+        out.push(*self as u8 as f64);
+    }
+    fn unpack(v: &[f64]) -> Option<Self> {
+        <bool as ColumnValue>::from_components(v)
+    }
+}
+
+/// The id of the particle at index `v` ([`NONE`] stays).
+fn id_at(id: &[u32], v: u32) -> u32 {
+    if v == NONE {
+        NONE
+    } else {
+        id[v as usize]
+    }
 }
 
 /// Replaces each particle index `v` (not [`NONE`]) by `inverse[v]`.
@@ -334,6 +457,11 @@ particle_fields! { |new, index|
 }
 
 impl<const D: usize> Particles<D> {
+    /// Where a row of [`Self::pack`] holds the id (the first field).
+    pub const PACKED_ID: usize = 0;
+    /// Where a row of [`Self::pack`] holds the position's `D` numbers (the second field).
+    pub const PACKED_POSITION: usize = 1;
+
     /// Number of particles.
     pub fn len(&self) -> usize {
         self.position.len()
@@ -394,6 +522,42 @@ mod tests {
         assert_eq!(p.retain(&[false, true]), 1);
         assert_eq!(p.backing_wall, vec![NONE]);
         assert_eq!(p.retain(&[true]), 0);
+    }
+
+    #[test]
+    fn packed_particles_come_back_with_ids_in_index_fields() {
+        let p = two();
+        let mut row = Vec::new();
+        // The dummy and its backing wall, in the other order.
+        let mut q = Particles::<2>::default();
+        for i in [2, 1] {
+            row.clear();
+            p.pack(i, &mut row);
+            assert_eq!(row.len(), Particles::<2>::packed_width());
+            assert_eq!(row[Particles::<2>::PACKED_ID], p.id[i] as f64);
+            let at = Particles::<2>::PACKED_POSITION;
+            assert_eq!(row[at..at + 2], p.position[i].0);
+            q.push_packed(&row).unwrap();
+        }
+        assert_eq!(
+            q.backing_wall,
+            vec![1, NONE],
+            "the wall's id before the remap"
+        );
+        q.ids_to_indices();
+        assert_eq!(q.backing_wall, vec![1, NONE]);
+        assert_eq!(q.id, vec![2, 1]);
+        assert_eq!(q.kind, vec![Kind::Dummy, Kind::Wall]);
+        assert_eq!(q.position, vec![p.position[2], p.position[1]]);
+        assert_eq!(q.inconsistent_field(), None);
+        // Without its wall the dummy has none; a short row is refused.
+        let mut r = Particles::<2>::default();
+        row.clear();
+        p.pack(2, &mut row);
+        r.push_packed(&row).unwrap();
+        r.ids_to_indices();
+        assert_eq!(r.backing_wall, vec![NONE]);
+        assert!(r.push_packed(&row[..3]).is_none());
     }
 
     #[test]

@@ -36,6 +36,10 @@ pub enum BreakdownReason {
         /// The step the Courant limit asked for (s).
         dt: f64,
     },
+    /// Another process of a distributed run broke down in this step.
+    Elsewhere,
+    /// The particles could not be exchanged between the processes of a distributed run.
+    Exchange(String),
 }
 
 /// A breakdown: when, why, and which particles (ids) were involved.
@@ -91,6 +95,8 @@ impl fmt::Display for Breakdown {
             BreakdownReason::TimeStepCollapse { dt } => {
                 format!("time step collapsed (dt = {dt:.3e} s)")
             }
+            BreakdownReason::Elsewhere => "another process of the run broke down".to_string(),
+            BreakdownReason::Exchange(why) => format!("particle exchange failed: {why}"),
         };
         write!(
             f,
@@ -121,16 +127,20 @@ pub struct Limits<const D: usize> {
 /// At most this many particles are named in a failure.
 const NAMED: usize = 8;
 
-/// Ids of the first few particles matching `pred`.
-fn first_matching<const D: usize>(p: &Particles<D>, pred: impl Fn(usize) -> bool) -> Vec<u32> {
-    (0..p.len())
+/// Ids of the first few of the particles `0 .. n` matching `pred`.
+fn first_matching<const D: usize>(
+    p: &Particles<D>,
+    n: usize,
+    pred: impl Fn(usize) -> bool,
+) -> Vec<u32> {
+    (0..n)
         .filter(|&i| pred(i))
         .take(NAMED)
         .map(|i| p.id[i])
         .collect()
 }
 
-/// Checks a new state (`pos`, `vel`, `pressure` over the particles `p`, the closest pair
+/// Checks a new state (`pos`, `vel`, `pressure` over the first particles of `p`, the closest pair
 /// `min_pair` in m) against the limits; returns the largest fluid speed (m/s).
 pub fn check_state<const D: usize>(
     p: &Particles<D>,
@@ -145,7 +155,7 @@ pub fn check_state<const D: usize>(
     if !(0..n).into_par_iter().all(finite) {
         return Err(Failure {
             reason: BreakdownReason::NotFinite,
-            particles: first_matching(p, |i| !finite(i)),
+            particles: first_matching(p, n, |i| !finite(i)),
         });
     }
     let outside = |i: usize| {
@@ -154,7 +164,7 @@ pub fn check_state<const D: usize>(
     if !lim.outflow && (0..n).into_par_iter().any(outside) {
         return Err(Failure {
             reason: BreakdownReason::LeftDomain,
-            particles: first_matching(p, outside),
+            particles: first_matching(p, n, outside),
         });
     }
     if min_pair < lim.min_pair {
@@ -172,7 +182,7 @@ pub fn check_state<const D: usize>(
         let bound = lim.max_speed;
         return Err(Failure {
             reason: BreakdownReason::SpeedBlowUp { speed: umax, bound },
-            particles: first_matching(p, |i| vel[i].norm() > bound),
+            particles: first_matching(p, n, |i| vel[i].norm() > bound),
         });
     }
     Ok(umax)

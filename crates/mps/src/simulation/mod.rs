@@ -6,12 +6,14 @@
 //! from (`input`); knows nothing of files or diagnostics.
 
 pub mod breakdown;
+pub mod domain;
 pub mod pressure_solver;
 mod stages;
 pub mod time_step;
 pub mod timers;
 
 pub use breakdown::{Breakdown, BreakdownReason};
+pub use domain::Domain;
 pub use stages::{DensitySurface, Predicted};
 pub use timers::{Stage, Timers};
 
@@ -97,6 +99,10 @@ pub struct Simulation<const D: usize> {
     skin: f64,
     /// The last PPE had no Dirichlet row (a closed domain, its level from the reference).
     closed: bool,
+    /// The processes sharing a distributed run (`None` on one process): `domain.rs`.
+    domain: std::sync::Mutex<Option<Box<dyn Domain<D>>>>,
+    /// Own particles of a distributed run (the rest is halo); `None` on one process.
+    owned: Option<usize>,
 }
 
 impl<const D: usize> Simulation<D> {
@@ -144,6 +150,8 @@ impl<const D: usize> Simulation<D> {
             skin: SKIN * l0,
             outflow_removed: 0,
             closed: false,
+            domain: std::sync::Mutex::new(None),
+            owned: None,
         };
         sim.reorder();
         sim.refresh_diagnostic_fields();
@@ -164,6 +172,14 @@ impl<const D: usize> Simulation<D> {
                 self.last = r;
                 self.step_count += 1;
                 self.time += r.dt;
+                if let Err(why) = self.redistribute() {
+                    return Err(Breakdown {
+                        time: self.time,
+                        step: self.step_count,
+                        reason: BreakdownReason::Exchange(why),
+                        particles: Vec::new(),
+                    });
+                }
                 Ok(r)
             }
             Err(f) => {
@@ -185,31 +201,42 @@ impl<const D: usize> Simulation<D> {
             dt,
             ..Default::default()
         };
+        // (On several processes, each refresh_* below brings the halo's copies of what the
+        // stage before computed from their owners: domain.rs.)
         // 1. Neighbours at r^n (reordered for locality now and then).
         self.timed(Stage::Neighbors, |s| s.update_neighbors());
         // 2. Explicit forces: u* = u + dt (nu lap u + g), r* = r + dt u*; optional collisions.
         let mut pred = self.timed(Stage::Explicit, |s| s.predict(dt));
+        self.refresh_predicted(&mut pred);
         self.keep_neighbors_valid(&pred)?;
         if let Some(c) = self.scheme.collision {
             report.collisions = self.timed(Stage::Explicit, |s| s.collide(&mut pred, c, dt));
+            self.refresh_predicted(&mut pred);
         }
         // 3. Number density n*, free surface, densities of wall and dummy particles.
-        let surf = self.timed(Stage::DensitySurface, |s| s.density_and_surface(&pred.pos));
+        let mut surf = self.timed(Stage::DensitySurface, |s| s.density_and_surface(&pred.pos));
+        self.refresh_surface(&mut surf);
         self.timed(Stage::DensitySurface, |s| s.update_wall_density(&pred.pos));
         // 4. Pressure Poisson equation at r*, u*.
-        let density = self.ppe_density(&pred, &surf);
+        let mut density = self.ppe_density(&pred, &surf);
+        self.refresh_density(&mut density);
         let sys = self.timed(Stage::PpeAssembly, |s| {
             s.assemble(&pred, &surf, &density, dt)
         });
-        report.unknowns = sys.particle_of.len();
+        report.unknowns = self.own_unknowns(&sys);
         let mut pressure = self.solve_pressure(sys, &mut report)?;
+        self.refresh_scalars(&mut pressure);
         // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization.
         let (acc, ds_acc) = self.timed(Stage::Gradient, |s| {
-            let carries = s.boundary_pressures(&pred, &surf, &mut pressure);
-            let acc = s.pressure_acceleration(&pred, &surf, &density, &pressure, &carries);
+            let mut carries = s.boundary_pressures(&pred, &surf, &mut pressure);
+            s.refresh_scalars(&mut pressure);
+            s.refresh_flags(&mut carries);
+            let mut acc = s.pressure_acceleration(&pred, &surf, &density, &pressure, &carries);
+            s.refresh_vectors(&mut acc);
             let (ds_acc, ds_active) = s.stabilize(&pred, &surf, &acc, dt);
-            report.ds_active = ds_active;
-            (report.min_pair_distance, report.close_pairs) = s.pair_metrics(&pred, &surf);
+            report.ds_active = s.sum(ds_active);
+            let (m, c) = s.pair_metrics(&pred, &surf);
+            (report.min_pair_distance, report.close_pairs) = (s.min(m), s.sum(c));
             (acc, ds_acc)
         });
         // 6. Correction u = u* + dt a, r = r* + dt^2 a, and the breakdown checks.
@@ -309,11 +336,13 @@ impl<const D: usize> Simulation<D> {
     pub fn refresh_diagnostic_fields(&mut self) {
         self.rebuild_neighbors();
         let pos = self.particles.position.clone();
-        let surf = self.density_and_surface(&pos);
+        let mut surf = self.density_and_surface(&pos);
+        self.refresh_surface(&mut surf);
         self.particles.number_density = surf.number_density;
         self.particles.free_surface = surf.free_surface;
         // As the step does: no free surface, no clamp of the walls' extrapolated pressures.
-        let closed = !self.particles.free_surface.iter().any(|&f| f);
+        let own = self.owned();
+        let closed = !self.any(self.particles.free_surface[..own].iter().any(|&f| f));
         if self.scheme.wall_pressure == crate::numerics::walls::WallPressure::Extrapolated {
             let v = self.view();
             let p = &self.particles;
@@ -335,6 +364,9 @@ impl<const D: usize> Simulation<D> {
             for (i, v) in walls {
                 self.particles.pressure[i] = v;
             }
+            let mut pressure = std::mem::take(&mut self.particles.pressure);
+            self.refresh_scalars(&mut pressure);
+            self.particles.pressure = pressure;
         }
     }
 

@@ -2,12 +2,13 @@
 //! state through a [`View`] and hands its result to the next as a typed value.
 
 use super::breakdown::{check_state, BreakdownReason, Failure};
+use super::pressure_solver::SolveReport;
 use super::{Simulation, Stage, StepReport};
 use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::operators::{laplacian_vector, number_density};
-use crate::numerics::ppe::{assemble_into, PressureReference, PressureSystem};
+use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
 use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
@@ -67,7 +68,8 @@ impl<const D: usize> Simulation<D> {
 
     /// Stage 1: neighbour lists at `r^n` (with a skin), reordering every few steps.
     pub(super) fn update_neighbors(&mut self) {
-        if self.step_count.is_multiple_of(REORDER_EVERY) {
+        // A distributed run's order is its domain's (own particles first, then the halo).
+        if !self.is_distributed() && self.step_count.is_multiple_of(REORDER_EVERY) {
             self.reorder();
         }
         // The old list goes first, so the two never coexist (peak memory).
@@ -106,6 +108,7 @@ impl<const D: usize> Simulation<D> {
             .into_par_iter()
             .map(|i| (pred.pos[i] - old[i]).norm())
             .reduce(|| 0.0, f64::max);
+        let max_move = self.max(max_move);
         if !max_move.is_finite() {
             return Err(BreakdownReason::NotFinite.into());
         }
@@ -159,7 +162,8 @@ impl<const D: usize> Simulation<D> {
     /// Stage 3b: densities of wall and dummy particles from the fluid at `pos`.
     pub(super) fn update_wall_density(&mut self, pos: &[Vector<D>]) {
         let v = self.view_of(pos, pos, None, None);
-        let density = wall_densities(&v, &self.particles.backing_wall, &self.kernels);
+        let mut density = wall_densities(&v, &self.particles.backing_wall, &self.kernels);
+        self.refresh_scalars(&mut density);
         self.particles.density = density;
     }
 
@@ -185,9 +189,11 @@ impl<const D: usize> Simulation<D> {
         dt: f64,
     ) -> PressureSystem {
         let mut sys = self.last_system.take().unwrap_or_default();
+        let open_elsewhere = self.open_elsewhere(pred, surf);
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
         let previous = &self.particles.pressure;
-        let reference = self.pressure_reference();
+        let mut reference = self.pressure_reference();
+        reference.open_elsewhere = open_elsewhere;
         assemble_into(
             &v,
             previous,
@@ -214,7 +220,22 @@ impl<const D: usize> Simulation<D> {
             .iter()
             .map(|&i| p.pressure[i as usize])
             .collect();
-        let (result, solved) = self.solver.solve(&sys, &mut x);
+        let t = std::time::Instant::now();
+        let (result, solved) = match self.solve_across(&sys, &mut x) {
+            Some(r) => {
+                let stats = r.unwrap_or_else(|e| e.stats);
+                let solve = t.elapsed();
+                (
+                    r,
+                    SolveReport {
+                        stats,
+                        solve,
+                        ..Default::default()
+                    },
+                )
+            }
+            None => self.solver.solve(&sys, &mut x),
+        };
         self.timers.add(Stage::PpeSetup, solved.setup);
         self.timers.add(Stage::PpeSolve, solved.solve);
         report.solve = solved.stats;
@@ -256,16 +277,30 @@ impl<const D: usize> Simulation<D> {
         Ok(pressure)
     }
 
+    /// In a distributed run: true when another process's own particles hold a Dirichlet
+    /// row (a free-surface fluid particle or an open or dry wall particle).
+    fn open_elsewhere(&mut self, pred: &Predicted<D>, surf: &DensitySurface) -> bool {
+        let Some(owned) = self.owned else {
+            return false;
+        };
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+        let re = self.kernels.lap.re;
+        let local = (0..owned).any(|i| v.kind[i] != Kind::Dummy && is_dirichlet(i, &v, re));
+        self.any(local)
+    }
+
     /// Where a closed domain's pressure level is set (the case's `domain.pressure_reference`).
     fn pressure_reference(&self) -> PressureReference<D> {
         match &self.case.domain.pressure_reference {
             Some(r) => PressureReference {
                 position: r.position.as_deref().and_then(Vector::from_slice),
                 value: r.value,
+                open_elsewhere: false,
             },
             None => PressureReference {
                 position: None,
                 value: 0.0,
+                open_elsewhere: false,
             },
         }
     }
@@ -342,7 +377,8 @@ impl<const D: usize> Simulation<D> {
                 }
             })
             .unzip();
-        (Some(a), active.iter().map(|&a| a as u64).sum())
+        let owned = self.owned();
+        (Some(a), active[..owned].iter().map(|&a| a as u64).sum())
     }
 
     /// Smallest fluid-neighbour distance (m) and the number of pairs closer than 0.9 l0.
@@ -350,7 +386,7 @@ impl<const D: usize> Simulation<D> {
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
         let lim = 0.9 * self.l0();
         let re = self.kernels.grad.re;
-        (0..pred.pos.len())
+        (0..self.owned())
             .into_par_iter()
             .filter(|&i| v.kind[i] == Kind::Fluid)
             .map(|i| {
@@ -431,11 +467,22 @@ impl<const D: usize> Simulation<D> {
                 (pred.vel[i] + a * dt, pred.pos[i] + a * (dt * dt))
             })
             .unzip();
-        let mut result = check_state(p, &pos, &vel, &pressure, min_pair, &self.limits());
+        let own = self.owned();
+        let (o_pos, o_vel, o_p) = (&pos[..own], &vel[..own], &pressure[..own]);
+        let mut result = check_state(p, o_pos, o_vel, o_p, min_pair, &self.limits());
         if let Err(f) = &mut result {
             if matches!(f.reason, BreakdownReason::Penetration { .. }) {
                 f.particles = self.pair_at(&pred, &surf, min_pair);
             }
+        }
+        if self.is_distributed() {
+            // Every process learns whether any broke down, and the largest speed.
+            let failed = self.any(result.is_err());
+            result = match result {
+                Ok(_) if failed => Err(BreakdownReason::Elsewhere.into()),
+                Ok(u) => Ok(self.max(u)),
+                e => e,
+            };
         }
         let p = &mut self.particles;
         p.velocity = vel;

@@ -58,7 +58,7 @@ impl<const D: usize> Simulation<D> {
     /// The step to take (s) towards `until` (s): fixed, or
     /// `min(dt_max, C l0 / u_max, 0.1 l0^2 / nu)`; a time-step collapse below
     /// `breakdown.min_dt_ratio dt_max` is a breakdown.
-    pub(super) fn time_step(&self, until: f64) -> Result<f64, BreakdownReason> {
+    pub(super) fn time_step(&mut self, until: f64) -> Result<f64, BreakdownReason> {
         let c = &self.case.time;
         let dt = if let Some(f) = c.dt_fixed {
             f
@@ -69,6 +69,8 @@ impl<const D: usize> Simulation<D> {
                 .filter(|&i| p.kind[i] == Kind::Fluid)
                 .map(|i| p.velocity[i].norm())
                 .reduce(|| 0.0, f64::max);
+            let umax = self.max(umax);
+            let c = &self.case.time;
             let l0 = self.l0();
             let mut dt = self.dt_max;
             if umax > 0.0 {
