@@ -87,7 +87,7 @@ pub struct CaseArgs {
     pub set: Vec<String>,
 }
 
-#[derive(Args)]
+#[derive(Args, Clone)]
 struct RunArgs {
     #[command(flatten)]
     case: CaseArgs,
@@ -333,52 +333,63 @@ fn print_results(s: &RunSummary, out: &Path) {
 }
 
 fn cmd_run(a: RunArgs) -> CmdResult {
-    refuse_mpirun()?;
+    if let Some((var, n)) = mpi_processes() {
+        #[cfg(feature = "mpi")]
+        {
+            let _ = (var, n);
+            return distributed_run(a);
+        }
+        #[cfg(not(feature = "mpi"))]
+        return Err(bad(format!(
+            "mps run was started as one of {n} MPI processes ({var} = {n}), but this mps was built without the distributed run: build it with `cargo build --release --features mpi` (README, \"Distributed run\"); every process would write the same folder"
+        )));
+    }
     in_pool(a.threads, || run_in_pool(a))
 }
 
-/// `mps run` started by `mpirun` as one of several processes: each would run the whole case
-/// into the same folder. The distributed run is not built into `mps` yet (README,
-/// "Distributed run"), so that is refused with one line. The launchers' environment:
-/// `OMPI_COMM_WORLD_SIZE` (Open MPI), `PMI_SIZE` (MPICH, Intel MPI, Slurm).
-fn refuse_mpirun() -> Result<(), Failure> {
-    for var in ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"] {
-        let n = std::env::var(var)
-            .ok()
-            .and_then(|v| v.trim().parse::<u64>().ok());
-        if let Some(n) = n.filter(|&n| n > 1) {
-            return Err(bad(format!(
-                "mps run was started as one of {n} MPI processes ({var} = {n}), but this mps runs a case on one process (the distributed run is in progress: README, \"Distributed run\"); every process would write the same folder: run it without mpirun"
-            )));
-        }
-    }
-    Ok(())
+/// `mps run` started by `mpirun` as one of several processes: the launcher's variable and
+/// the number of processes. The launchers' environment: `OMPI_COMM_WORLD_SIZE` (Open MPI),
+/// `PMI_SIZE` (MPICH, Intel MPI, Slurm).
+fn mpi_processes() -> Option<(&'static str, u64)> {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"]
+        .into_iter()
+        .find_map(|var| {
+            let n = std::env::var(var).ok()?.trim().parse::<u64>().ok()?;
+            (n > 1).then_some((var, n))
+        })
 }
 
-/// `mps run` on the run's thread pool.
-fn run_in_pool(a: RunArgs) -> CmdResult {
+/// The case of `mps run`, its label and the output folder (`--out`, else `runs/NAME`).
+fn case_and_folder(a: &RunArgs) -> Result<(mps::Case, String, PathBuf), Failure> {
     let (case, label) = load_case(&a.case)?;
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&case.name));
+    Ok((case, label, out))
+}
+
+/// `mps run` on the run's thread pool.
+fn run_in_pool(a: RunArgs) -> CmdResult {
+    let (case, label, out) = case_and_folder(&a)?;
     match case.dimension {
         3 => run_case::<3>(a, case, label, out),
         _ => run_case::<2>(a, case, label, out),
     }
 }
 
-/// Runs a loaded `case` in `D` dimensions into `out` (the rest of `mps run`).
-fn run_case<const D: usize>(
-    a: RunArgs,
+/// The simulation of `case`, restored from `--restart` if given; the output folder and the
+/// folder of the checkpoint resumed from.
+type Built<const D: usize> = (Simulation<D>, PathBuf, Option<PathBuf>);
+
+/// Builds the simulation of `case` for `mps run` (restored from `--restart` if given).
+fn build<const D: usize>(
+    a: &RunArgs,
     case: mps::Case,
-    label: String,
+    label: &str,
     mut out: PathBuf,
-) -> CmdResult {
-    let end = case.time.end;
-    let vtu = case.output.vtu;
-    let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
-    let mut sim = mps::io::checkpoint::build_simulation::<D>(case, &label)?;
+) -> Result<Built<D>, Failure> {
+    let mut sim = mps::io::checkpoint::build_simulation::<D>(case, label)?;
     let mut resumed = None;
     if let Some(ck) = &a.restart {
         let dir = restart(&mut sim, ck, a.quiet)?;
@@ -387,6 +398,17 @@ fn run_case<const D: usize>(
         }
         resumed = Some(dir);
     }
+    Ok((sim, out, resumed))
+}
+
+/// Says what runs where, prepares the output folder and keeps the case in it.
+fn open_output<const D: usize>(
+    a: &RunArgs,
+    sim: &Simulation<D>,
+    label: &str,
+    out: &Path,
+    resumed: Option<&Path>,
+) -> Result<(), Failure> {
     if !a.quiet {
         let p = &sim.particles;
         say_err!(
@@ -397,28 +419,21 @@ fn run_case<const D: usize>(
             p.count(mps::particles::Kind::Dummy),
             sim.l0(),
             sim.scheme.name,
-            end,
+            sim.case.time.end,
             out.display()
         );
     }
-    let in_place = resumed
-        .as_deref()
-        .is_some_and(|d| d.canonicalize().ok() == out.canonicalize().ok());
+    let in_place = resumed.is_some_and(|d| d.canonicalize().ok() == out.canonicalize().ok());
     if !in_place {
-        mps::run::recorder::prepare_folder(&out, a.force)?;
+        mps::run::recorder::prepare_folder(out, a.force)?;
     }
-    save_case(&a.case, &out)?;
-    if let Some(b) = &beat {
-        b.set(format!("{label}: first step"));
-    }
-    let mut rep = Reporter::new(beat, end);
-    rep.render_every = a.render_every;
-    let summary = run_from(&mut sim, &out, resumed.as_deref(), &mut rep)?;
-    if let Some(b) = &rep.bar {
-        b.finish_and_clear();
-    }
+    save_case(&a.case, out)
+}
+
+/// After a run: the results, and exit code 2 on a breakdown.
+fn finish(a: &RunArgs, summary: &RunSummary, out: &Path, vtu: bool) -> CmdResult {
     if !a.quiet {
-        print_results(&summary, &out);
+        print_results(summary, out);
     }
     if let Some(b) = &summary.breakdown {
         let files = if vtu {
@@ -430,6 +445,86 @@ fn run_case<const D: usize>(
         return Ok(ExitCode::from(2));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Runs a loaded `case` in `D` dimensions into `out` (the rest of `mps run`).
+fn run_case<const D: usize>(a: RunArgs, case: mps::Case, label: String, out: PathBuf) -> CmdResult {
+    let (end, vtu) = (case.time.end, case.output.vtu);
+    let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
+    let (mut sim, out, resumed) = build::<D>(&a, case, &label, out)?;
+    open_output(&a, &sim, &label, &out, resumed.as_deref())?;
+    if let Some(b) = &beat {
+        b.set(format!("{label}: first step"));
+    }
+    let mut rep = Reporter::new(beat, end);
+    rep.render_every = a.render_every;
+    let summary = run_from(&mut sim, &out, resumed.as_deref(), &mut rep)?;
+    if let Some(b) = &rep.bar {
+        b.finish_and_clear();
+    }
+    finish(&a, &summary, &out, vtu)
+}
+
+/// `mpirun -np N mps run CASE` (feature `mpi`): every process builds the case and steps its
+/// piece; the first one records the whole run as a serial run would (README, "Distributed
+/// run"). One thread per process unless `--threads` says otherwise.
+#[cfg(feature = "mpi")]
+fn distributed_run(a: RunArgs) -> CmdResult {
+    let threads = a.threads.or(Some(1));
+    in_pool(threads, || {
+        let procs = mps::distributed::run::Processes::start()
+            .ok_or_else(|| bad("mps run: MPI could not be initialised".to_string()))?;
+        let first = procs.rank() == 0;
+        let run = || {
+            let (case, label, out) = case_and_folder(&a)?;
+            match case.dimension {
+                3 => distributed_case::<3>(&procs, a, case, label, out),
+                _ => distributed_case::<2>(&procs, a, case, label, out),
+            }
+        };
+        match run() {
+            // Every process reads the same input and meets the same error: the first says it.
+            Err(_) if !first => Ok(ExitCode::from(1)),
+            r => r,
+        }
+    })
+}
+
+/// The distributed run of a loaded case in `D` dimensions.
+#[cfg(feature = "mpi")]
+fn distributed_case<const D: usize>(
+    procs: &mps::distributed::run::Processes,
+    mut a: RunArgs,
+    case: mps::Case,
+    label: String,
+    out: PathBuf,
+) -> CmdResult {
+    let first = procs.rank() == 0;
+    a.quiet |= !first;
+    let vtu = case.output.vtu;
+    let (sim, out, resumed) = build::<D>(&a, case.clone(), &label, out.clone())?;
+    procs.check_size(&sim, &label)?;
+    let whole = if first {
+        // Built a second time without a second "restarting from" line.
+        let quiet = RunArgs {
+            quiet: true,
+            ..a.clone()
+        };
+        let (whole, _, _) = build::<D>(&quiet, case, &label, out.clone())?;
+        open_output(&a, &whole, &label, &out, resumed.as_deref())?;
+        if !a.quiet {
+            say_err!("on {} MPI processes", procs.size());
+        }
+        Some(whole)
+    } else {
+        None
+    };
+    let mut silent = mps::run::Silent;
+    let summary = procs.run(sim, whole, &out, resumed.as_deref(), &mut silent)?;
+    match summary {
+        Some(s) => finish(&a, &s, &out, vtu),
+        None => Ok(ExitCode::SUCCESS),
+    }
 }
 
 fn main() -> ExitCode {

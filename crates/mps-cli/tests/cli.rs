@@ -715,9 +715,11 @@ fn bench_against_a_baseline_prints_ratios() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// `mps run` started by an MPI launcher as several processes (Open MPI's or PMI's size in the
-/// environment) is refused with one line and exit 1, before anything is written: each copy
-/// would run the whole case into the same folder. One process is a plain run.
+/// `mps run` built without the `mpi` feature and started by an MPI launcher as several
+/// processes (Open MPI's or PMI's size in the environment) is refused with one line and exit
+/// 1, before anything is written: each copy would run the whole case into the same folder.
+/// One process is a plain run. (With the feature, `tests/mpi_run.rs`.)
+#[cfg(not(feature = "mpi"))]
 #[test]
 fn a_run_started_as_several_mpi_processes_is_refused() {
     let dir = std::env::temp_dir().join(format!("mps_cli_mpirun_{}", std::process::id()));
@@ -732,7 +734,7 @@ fn a_run_started_as_several_mpi_processes_is_refused() {
         assert_eq!(out.status.code(), Some(1), "{err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(
-            err.contains("4 MPI processes") && err.contains(var),
+            err.contains("4 MPI processes") && err.contains(var) && err.contains("--features mpi"),
             "{err}"
         );
         assert!(!dir.exists());

@@ -12,8 +12,8 @@
 //! - [`analysis`]: metrics, groups, validation, the run summary, comparisons;
 //! - [`io`]: atomic writes, VTU/PVD, checkpoints, CSV series;
 //! - [`run`]: the run loop and its recorder, on top of all of them;
-//! - [`distributed`]: the distributed run's partition and (feature `mpi`) its hypre solve,
-//!   on top beside `run`.
+//! - [`distributed`]: the distributed run: the partition and (feature `mpi`) the step over
+//!   MPI processes, its hypre solve and `mpirun -np N mps run`; on top, using `run`.
 
 // `!(x > 0.0)` is used on purpose: it rejects NaN as well as non-positive values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -54,6 +54,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "linalg",
             "input",
             "simulation",
+            "analysis",
+            "run",
             "error",
         ],
     ),

@@ -39,6 +39,9 @@ pub enum HypreError {
     Input(String),
 }
 
+/// Levels of aggressive coarsening (docs/decisions.md, "hypre's BoomerAMG").
+const AGGRESSIVE_LEVELS: ffi::HYPRE_Int = 1;
+
 /// Iterations and final relative residual of a distributed solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HypreStats {
@@ -286,6 +289,11 @@ unsafe fn solve(
     check(
         "HYPRE_BoomerAMGSetPrintLevel",
         ffi::HYPRE_BoomerAMGSetPrintLevel(o.amg, 0),
+    )?;
+    // Aggressive coarsening on the first level (docs/decisions.md, "hypre's BoomerAMG").
+    check(
+        "HYPRE_BoomerAMGSetAggNumLevels",
+        ffi::HYPRE_BoomerAMGSetAggNumLevels(o.amg, AGGRESSIVE_LEVELS),
     )?;
     check(
         "HYPRE_ParCSRPCGSetPrecond",

@@ -1,4 +1,4 @@
-//! The distributed run (issue 16, in progress): the pieces that let a run span processes.
+//! The distributed run (issue 16): a run that spans MPI processes.
 //!
 //! - [`partition`]: cells ordered along a Morton curve and cut into pieces of equal particle
 //!   count, the halo of each piece, the imbalance that calls for rebalancing; plain data,
@@ -6,16 +6,23 @@
 //! - `exchange` (feature `mpi`): migration of particles to the owner of their cell and the
 //!   halo exchange, over MPI;
 //! - `hypre` (feature `mpi`): the PPE solved by hypre's BoomerAMG-preconditioned PCG through
-//!   its IJ interface, each process owning a contiguous block of rows.
+//!   its IJ interface, each process owning a contiguous block of rows;
+//! - `step` (feature `mpi`): the [`crate::simulation::Domain`] over MPI that makes the
+//!   serial step a distributed one (own particles, halo, refreshes, the solve);
+//! - `run` (feature `mpi`): `mpirun -np N mps run CASE`, recorded by the serial run loop on
+//!   the first process.
 //!
-//! On top, beside `run`: uses `particles`, `numerics`, `linalg`, `input`, `simulation`;
-//! nothing else of the crate uses it.
+//! On top: uses `particles`, `numerics`, `linalg`, `input`, `simulation`, `analysis` and
+//! `run`; nothing else of the crate uses it (the step reaches it through the `Domain` trait
+//! of `simulation`).
 
 #[cfg(feature = "mpi")]
 pub mod exchange;
 #[cfg(feature = "mpi")]
 pub mod hypre;
 pub mod partition;
+#[cfg(feature = "mpi")]
+pub mod run;
 #[cfg(feature = "mpi")]
 pub mod step;
 

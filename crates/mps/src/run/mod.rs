@@ -81,6 +81,7 @@ fn step_loop<const D: usize>(
     sim: &mut Simulation<D>,
     rec: &mut Recorder<D>,
     observer: &mut dyn Observer,
+    stepper: Stepper<D>,
 ) -> Result<Totals> {
     let start = Instant::now();
     let end = sim.case.time.end;
@@ -106,7 +107,7 @@ fn step_loop<const D: usize>(
     };
     let mut last_output_step = sim.step_count;
     while sim.time < end - eps && sim.step_count < max_steps {
-        let r = match sim.step(end) {
+        let r = match stepper(sim, end) {
             Ok(r) => r,
             Err(b) => {
                 observer.on_message(&b.to_string());
@@ -225,6 +226,23 @@ pub fn run_from<const D: usize>(
     resumed: Option<&Path>,
     observer: &mut dyn Observer,
 ) -> Result<RunSummary> {
+    run_stepped(sim, out, resumed, observer, &mut |s, until| s.step(until))
+}
+
+/// How the run loop advances its simulation one step towards a time (s): `Simulation::step`
+/// on one process; in a distributed run, the step of every process, after which the first
+/// one's copy of the whole (what is recorded) is gathered.
+pub type Stepper<'a, const D: usize> =
+    &'a mut dyn FnMut(&mut Simulation<D>, f64) -> std::result::Result<StepReport, Breakdown>;
+
+/// [`run_from`], each step taken by `stepper`, whose simulation is recorded.
+pub fn run_stepped<const D: usize>(
+    sim: &mut Simulation<D>,
+    out: &Path,
+    resumed: Option<&Path>,
+    observer: &mut dyn Observer,
+    stepper: Stepper<D>,
+) -> Result<RunSummary> {
     std::fs::create_dir_all(out).at(out)?;
     let front_wall = match &sim.case.validation {
         Some(ValidationSpec::DamBreak { wall_x, .. })
@@ -245,7 +263,7 @@ pub fn run_from<const D: usize>(
             rec
         }
     };
-    let totals = step_loop(sim, &mut rec, observer)?;
+    let totals = step_loop(sim, &mut rec, observer, stepper)?;
     write_smoothed_probes(sim, &rec, out)?;
     let validation = validate(sim, &rec, out)?;
     let summary = summarise(sim, &rec, &totals, validation);

@@ -38,8 +38,9 @@ pub enum BreakdownReason {
     },
     /// Another process of a distributed run broke down in this step.
     Elsewhere,
-    /// The particles could not be exchanged between the processes of a distributed run.
-    Exchange(String),
+    /// A distributed run could not go on (a particle exchange failed, or what it does not do
+    /// yet).
+    Distributed(String),
 }
 
 /// A breakdown: when, why, and which particles (ids) were involved.
@@ -96,7 +97,7 @@ impl fmt::Display for Breakdown {
                 format!("time step collapsed (dt = {dt:.3e} s)")
             }
             BreakdownReason::Elsewhere => "another process of the run broke down".to_string(),
-            BreakdownReason::Exchange(why) => format!("particle exchange failed: {why}"),
+            BreakdownReason::Distributed(why) => format!("distributed run: {why}"),
         };
         write!(
             f,

@@ -176,7 +176,7 @@ impl<const D: usize> Simulation<D> {
                     return Err(Breakdown {
                         time: self.time,
                         step: self.step_count,
-                        reason: BreakdownReason::Exchange(why),
+                        reason: BreakdownReason::Distributed(why),
                         particles: Vec::new(),
                     });
                 }
@@ -224,6 +224,7 @@ impl<const D: usize> Simulation<D> {
             s.assemble(&pred, &surf, &density, dt)
         });
         report.unknowns = self.own_unknowns(&sys);
+        self.refuse_closed_across(&sys)?;
         let mut pressure = self.solve_pressure(sys, &mut report)?;
         self.refresh_scalars(&mut pressure);
         // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization.

@@ -1,0 +1,203 @@
+//! `mpirun -np N mps run CASE` (feature `mpi`; `.ci/run` runs these with `cargo test
+//! --release -p mps-cli --features mpi --test mpi_run`): the run on 2 and 4 processes
+//! records what the serial run records, to round-off; it restarts from its checkpoint on
+//! another number of processes; a case too small for its processes is refused.
+#![cfg(feature = "mpi")]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn mps() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mps"))
+}
+
+/// `mpirun` with the flags this machine needs (as root: `--allow-run-as-root`) and `mps`.
+fn mpirun(np: usize) -> Command {
+    let mut c = Command::new("mpirun");
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false);
+    if root {
+        c.arg("--allow-run-as-root");
+    }
+    c.args(["--oversubscribe", "-np", &np.to_string()])
+        .arg(env!("CARGO_BIN_EXE_mps"));
+    c
+}
+
+fn succeed(c: &mut Command) {
+    let out = c.output().expect("starts (mpirun: openmpi-bin)");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The dam break under the DS preset, the PPE solved to 1e-12 (so that the serial and the
+/// hypre solve agree to round-off).
+const CASE: [&str; 9] = [
+    "run",
+    "--example",
+    "dam_break",
+    "-q",
+    "--set",
+    "scheme.name=MPS-HS-GC-DS",
+    "--set",
+    "solver.tolerance=1e-12",
+    "--force",
+];
+
+/// `metrics.csv` of `dir`: the header and every row as numbers.
+fn metrics(dir: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(dir.join("metrics.csv")).expect("metrics.csv");
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    (header, rows)
+}
+
+/// The physical columns of two metrics rows agree to `tol` relative (time, energies,
+/// momenta, speeds).
+fn rows_agree(header: &[String], a: &[f64], b: &[f64], tol: f64, what: &str) {
+    for name in [
+        "time",
+        "kinetic_energy",
+        "potential_energy",
+        "momentum_x",
+        "momentum_y",
+        "angular_momentum",
+        "max_speed",
+        "rms_speed",
+    ] {
+        let k = header.iter().position(|h| h == name).expect(name);
+        let scale = a[k].abs().max(b[k].abs()).max(1e-12);
+        assert!(
+            (a[k] - b[k]).abs() <= tol * scale,
+            "{what}: {name} {} against {}",
+            a[k],
+            b[k]
+        );
+    }
+}
+
+fn temp(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("mps_mpi_run_{name}_{}", std::process::id()))
+}
+
+/// On 2 and 4 processes every output's energies, momenta and speeds are the serial run's
+/// within 1e-8 (measured 1e-12 at 0.1 s; a distributed step that dropped a halo value is off
+/// by 1e-6 and more), with the same outputs, snapshots and front validation.
+#[test]
+fn a_distributed_run_records_what_the_serial_run_records() {
+    let serial = temp("serial");
+    succeed(
+        mps()
+            .args(CASE)
+            .args(["--set", "time.end=0.06", "--out"])
+            .arg(&serial),
+    );
+    let (header, want) = metrics(&serial);
+    for np in [2, 4] {
+        let dir = temp(&format!("np{np}"));
+        succeed(
+            mpirun(np)
+                .args(CASE)
+                .args(["--set", "time.end=0.06", "--out"])
+                .arg(&dir),
+        );
+        let (h, got) = metrics(&dir);
+        assert_eq!(h, header);
+        assert_eq!(got.len(), want.len(), "{np} processes: outputs");
+        for (a, b) in want.iter().zip(&got) {
+            rows_agree(&header, a, b, 1e-8, &format!("{np} processes"));
+        }
+        let snapshots = |d: &Path| {
+            std::fs::read_dir(d)
+                .unwrap()
+                .filter(|e| {
+                    let n = e.as_ref().unwrap().file_name();
+                    n.to_string_lossy().ends_with(".vtu")
+                })
+                .count()
+        };
+        assert_eq!(snapshots(&dir), snapshots(&serial));
+        assert!(dir.join("particles.pvd").exists() && dir.join("checkpoint.bin").exists());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    let _ = std::fs::remove_dir_all(&serial);
+}
+
+/// A run on 2 processes stopped after 60 steps (its checkpoint written there) and restarted
+/// in place on 4 ends where the uninterrupted run on 2 ends, within 1e-8 (the pieces are cut
+/// afresh at the restart, so only to round-off).
+#[test]
+fn a_distributed_run_restarts_on_another_number_of_processes() {
+    let (straight, stopped) = (temp("straight"), temp("stopped"));
+    succeed(
+        mpirun(2)
+            .args(CASE)
+            .args(["--set", "time.end=0.06", "--out"])
+            .arg(&straight),
+    );
+    succeed(
+        mpirun(2)
+            .args(CASE)
+            .args([
+                "--set",
+                "time.end=0.06",
+                "--set",
+                "time.max_steps=60",
+                "--out",
+            ])
+            .arg(&stopped),
+    );
+    succeed(
+        mpirun(4)
+            .args(CASE)
+            .args(["--set", "time.end=0.06", "--restart"])
+            .arg(stopped.join("checkpoint.bin")),
+    );
+    let (header, want) = metrics(&straight);
+    let (_, got) = metrics(&stopped);
+    rows_agree(
+        &header,
+        want.last().unwrap(),
+        got.last().unwrap(),
+        1e-8,
+        "restarted on 4",
+    );
+    let _ = std::fs::remove_dir_all(&straight);
+    let _ = std::fs::remove_dir_all(&stopped);
+}
+
+/// A case whose pieces would be narrower than their halo is deep is refused with exit 1 and
+/// one line naming the case, the particle count and the most processes it can run on;
+/// nothing is written.
+#[test]
+fn a_case_too_small_for_its_processes_is_refused() {
+    let dir = temp("small");
+    let out = mpirun(4)
+        .args(["run", "--example", "dam_break", "-q"])
+        .args(["--set", "particles.spacing=0.02", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    let ours: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(ours.len(), 1, "{err}");
+    assert!(
+        ours[0].contains("particles = 493") && ours[0].contains("too few for 4 processes"),
+        "{err}"
+    );
+    assert!(!dir.exists());
+}
