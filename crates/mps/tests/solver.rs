@@ -498,3 +498,30 @@ fn mean_surface_pressures_are_thread_and_restart_identical() {
     );
     assert!(one != steps("zero", 1, None), "the option changed nothing");
 }
+
+/// A tank closed on every side and full of fluid holds no air: it is recognised as full
+/// (no particle is ever flagged free surface), and only then: open at the top, filled to
+/// 0.25 of its 0.3 m, or the still tank (open) are not; a full one is flagged nowhere from
+/// the first state on, although its corner particles have incomplete neighbourhoods.
+#[test]
+fn a_closed_tank_full_of_fluid_has_no_free_surface() {
+    use mps::simulation::fills_a_closed_tank;
+    let full = sim("closed_box", &[]);
+    assert!(fills_a_closed_tank(&full.case, &full.particles));
+    assert!(!full.particles.free_surface.iter().any(|&f| f));
+    for (name, set) in [
+        ("closed_box", vec![("walls.0.shape.open_top", "true")]),
+        ("closed_box", vec![("fluid.1.shape.max", "[0.2, 0.25]")]),
+        ("hydrostatic", vec![]),
+    ] {
+        let s = sim(name, &set);
+        assert!(
+            !fills_a_closed_tank(&s.case, &s.particles),
+            "{name} {set:?}"
+        );
+        assert!(
+            s.particles.free_surface.iter().any(|&f| f),
+            "{name} {set:?}"
+        );
+    }
+}

@@ -103,6 +103,28 @@ pub struct Simulation<const D: usize> {
     domain: std::sync::Mutex<Option<Box<dyn Domain<D>>>>,
     /// Own particles of a distributed run (the rest is halo); `None` on one process.
     owned: Option<usize>,
+    /// The fluid fills a closed tank: no air, so no particle is ever free surface
+    /// (docs/decisions.md, "Full closed containers").
+    full: bool,
+}
+
+/// True when the fluid of `p` fills a tank of `case` closed on every side: the fluid's
+/// volume (`l0^D` per particle) is the tank's inner volume within 0.1 %. Such a container
+/// holds no air, so it has no free surface.
+pub fn fills_a_closed_tank<const D: usize>(case: &Case, p: &Particles<D>) -> bool {
+    let l0 = case.particles.spacing;
+    let fluid = p.count(Kind::Fluid) as f64 * l0.powi(D as i32);
+    case.walls.iter().any(|w| match &w.shape {
+        crate::input::case::ShapeSpec::Tank {
+            min,
+            max,
+            open_top: false,
+        } => {
+            let volume: f64 = min.iter().zip(max).map(|(a, b)| b - a).product();
+            volume > 0.0 && (fluid / volume - 1.0).abs() < 1e-3
+        }
+        _ => false,
+    })
 }
 
 impl<const D: usize> Simulation<D> {
@@ -152,7 +174,9 @@ impl<const D: usize> Simulation<D> {
             closed: false,
             domain: std::sync::Mutex::new(None),
             owned: None,
+            full: false,
         };
+        sim.full = fills_a_closed_tank(&sim.case, &sim.particles);
         sim.reorder();
         sim.refresh_diagnostic_fields();
         Ok(sim)

@@ -147,12 +147,16 @@ impl<const D: usize> Simulation<D> {
             kernels: &self.kernels,
         };
         let s = &self.scheme;
-        let free_surface = detect(
-            &s.surface,
-            &input,
-            &self.particles.kind,
-            s.wall_surface_test,
-        );
+        let free_surface = if self.full {
+            vec![false; pos.len()]
+        } else {
+            detect(
+                &s.surface,
+                &input,
+                &self.particles.kind,
+                s.wall_surface_test,
+            )
+        };
         DensitySurface {
             number_density: nd,
             free_surface,
