@@ -116,6 +116,7 @@ fn check<const D: usize>(universe: &mpi::environment::Universe, case: Case, run:
         halo_ratio = halo_ratio.max((sim.particles.len() - own) as f64 / own.max(1) as f64);
     }
     let elapsed = t.elapsed().as_secs_f64();
+    let rebalances = sim.rebalances();
     // Every own particle's id and position to rank 0.
     let own = sim.owned();
     let mut mine = Vec::with_capacity(own * (D + 1));
@@ -194,7 +195,7 @@ fn check<const D: usize>(universe: &mpi::environment::Universe, case: Case, run:
     }
     println!(
         "{name}: {steps} steps, {n} particles on {size} process(es): largest distance to the serial run {worst:.3e} l0 (bound {bound:.0e}); \
-         PPE iterations {iterations} (serial {serial_iterations}); halo/own at most {worst_halo:.2}; {elapsed:.2} s (serial {serial_elapsed:.2} s)"
+         PPE iterations {iterations} (serial {serial_iterations}); halo/own at most {worst_halo:.2}; pieces cut afresh {rebalances} times; {elapsed:.2} s (serial {serial_elapsed:.2} s)"
     );
     if worst.is_nan() || worst > bound {
         fail(

@@ -95,7 +95,13 @@ fn particles_migrate_and_exchange_halos_on_1_2_and_4_processes() {
 
 /// Runs `mps-mpi-step` on `np` processes: `steps` steps of `example` with `set`, every
 /// particle held once and within `bound` spacings of the serial run's.
-fn distributed_run_agrees(example_name: &str, np: usize, steps: u32, bound: f64, set: &[&str]) {
+fn distributed_run_agrees(
+    example_name: &str,
+    np: usize,
+    steps: u32,
+    bound: f64,
+    set: &[&str],
+) -> String {
     let out = mpirun(np)
         .arg(example("mps-mpi-step"))
         .args([example_name, &steps.to_string(), &bound.to_string()])
@@ -109,18 +115,23 @@ fn distributed_run_agrees(example_name: &str, np: usize, steps: u32, bound: f64,
         String::from_utf8_lossy(&out.stderr)
     );
     eprintln!("{}", text.trim());
+    text.into_owned()
 }
 
 /// The dam break under the DS preset (free surface by the distribution test, mean-surface
-/// pressure, walls and dummies) on 1, 2 and 4 processes: after 50 steps every particle is
+/// pressure, walls and dummies) on 1, 2 and 4 processes: after 100 steps every particle is
 /// within 1e-9 spacings of the serial run's, the PPE solved to 1e-12 on both sides (hypre
-/// against the serial solver; measured 1e-13 to 1e-12 l0). A halo of half the depth, whose
-/// outer particles see incomplete neighbourhoods, was off by 1.2e-6 l0.
+/// against the serial solver; measured 1e-13 to 3e-12 l0). A halo of half the depth, whose
+/// outer particles see incomplete neighbourhoods, was off by 1.2e-6 l0 after 50 steps. On 4
+/// processes the collapsing column unbalances the pieces, which are cut afresh on the way.
 #[test]
 fn the_distributed_dam_break_agrees_with_the_serial_run_on_1_2_and_4_processes() {
     let set = ["scheme.name=MPS-HS-GC-DS", "solver.tolerance=1e-12"];
     for np in [1, 2, 4] {
-        distributed_run_agrees("dam_break", np, 50, 1e-9, &set);
+        let text = distributed_run_agrees("dam_break", np, 100, 1e-9, &set);
+        if np == 4 {
+            assert!(!text.contains("cut afresh 0 times"), "{text}");
+        }
     }
 }
 

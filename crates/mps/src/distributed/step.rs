@@ -50,7 +50,7 @@ pub struct MpiDomain<const D: usize> {
     /// Halo particles from each process, held in process order after the own ones.
     recv: Vec<usize>,
     /// Recomputed cuts so far.
-    pub rebalances: u64,
+    rebalances: u64,
 }
 
 // SAFETY: the communicator is used only from the thread that runs the step (the stages'
@@ -302,6 +302,10 @@ impl<const D: usize> Domain<D> for MpiDomain<D> {
 
     fn refresh_vectors(&mut self, v: &mut [Vector<D>]) {
         self.refresh(v);
+    }
+
+    fn rebalances(&self) -> u64 {
+        self.rebalances
     }
 
     fn refresh_scalars(&mut self, v: &mut [f64]) {

@@ -26,6 +26,8 @@ pub trait Domain<const D: usize>: Send {
     fn refresh_scalars(&mut self, v: &mut [f64]);
     /// The halo's copies of a flag from their owners.
     fn refresh_flags(&mut self, v: &mut [bool]);
+    /// How many times the pieces were cut afresh to rebalance them.
+    fn rebalances(&self) -> u64;
     /// The largest of every process's `x`.
     fn max(&mut self, x: f64) -> f64;
     /// The smallest of every process's `x`.
@@ -64,6 +66,11 @@ impl<const D: usize> Simulation<D> {
         self.solver.reset();
         self.refresh_diagnostic_fields();
         Ok(())
+    }
+
+    /// How many times a distributed run's pieces were cut afresh (0 on one process).
+    pub fn rebalances(&mut self) -> u64 {
+        self.domain_mut().map_or(0, |d| d.rebalances())
     }
 
     /// True when the run is shared by several processes.
