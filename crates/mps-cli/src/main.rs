@@ -502,28 +502,25 @@ fn distributed_case<const D: usize>(
     let first = procs.rank() == 0;
     a.quiet |= !first;
     let vtu = case.output.vtu;
-    let (sim, out, resumed) = build::<D>(&a, case.clone(), &label, out.clone())?;
+    let (sim, out, resumed) = build::<D>(&a, case, &label, out)?;
     procs.check_size(&sim, &label)?;
-    let whole = if first {
-        // Built a second time without a second "restarting from" line.
-        let quiet = RunArgs {
-            quiet: true,
-            ..a.clone()
-        };
-        let (whole, _, _) = build::<D>(&quiet, case, &label, out.clone())?;
-        open_output(&a, &whole, &label, &out, resumed.as_deref())?;
-        if !a.quiet {
-            say_err!("on {} MPI processes", procs.size());
-        }
-        Some(whole)
-    } else {
-        None
+    let opened = match first {
+        true => open_output(&a, &sim, &label, &out, resumed.as_deref()),
+        false => Ok(()),
     };
+    // Every process learns whether the first could open the folder.
+    if !procs.all(opened.is_ok()) {
+        opened?;
+        return Ok(ExitCode::from(1));
+    }
+    if !a.quiet {
+        say_err!("on {} MPI processes", procs.size());
+    }
     let mut silent = mps::run::Silent;
-    let summary = procs.run(sim, whole, &out, resumed.as_deref(), &mut silent)?;
-    match summary {
-        Some(s) => finish(&a, &s, &out, vtu),
-        None => Ok(ExitCode::SUCCESS),
+    let summary = procs.run(sim, &out, resumed.as_deref(), &mut silent)?;
+    match first {
+        true => finish(&a, &summary, &out, vtu),
+        false => Ok(ExitCode::SUCCESS),
     }
 }
 

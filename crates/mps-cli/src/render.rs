@@ -182,7 +182,7 @@ pub fn cmd_render(a: RenderArgs) -> CmdResult {
                 breakdown: file.starts_with("breakdown"),
                 ..Default::default()
             };
-            let stem = file.trim_end_matches(".vtu");
+            let stem = file.trim_end_matches(".vtu").trim_end_matches(".pvtu");
             let tag = a.projection_tag();
             let png = out.join(format!("{}{tag}_{stem}.png", a.field.name()));
             render_frame(&frame, &opts).write_png(&png)?;

@@ -1,7 +1,9 @@
 //! `mpirun -np N mps run CASE` (feature `mpi`; `.ci/run` runs these with `cargo test
 //! --release -p mps-cli --features mpi --test mpi_run`): the run on 2 and 4 processes
-//! records what the serial run records, to round-off; it restarts from its checkpoint on
-//! another number of processes; a case too small for its processes is refused.
+//! records what the serial run records, to round-off, each process writing its pieces of
+//! the snapshots and checkpoints; it restarts from its checkpoint on as many processes bit
+//! for bit and on another number to round-off; a case too small for its processes is
+//! refused.
 #![cfg(feature = "mpi")]
 
 use std::path::{Path, PathBuf};
@@ -89,6 +91,24 @@ fn rows_agree(header: &[String], a: &[f64], b: &[f64], tol: f64, what: &str) {
     }
 }
 
+/// The names of the files in `dir`.
+fn files(dir: &Path) -> impl Iterator<Item = String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+}
+
+/// The particles of the last snapshot the `.pvd` of run folder `dir` lists (a VTU, or a
+/// `.pvtu` and its pieces), in id order.
+fn last_state(dir: &Path) -> mps::particles::Particles<2> {
+    let pvd = std::fs::read_to_string(dir.join("particles.pvd")).unwrap();
+    let (_, file) = mps::io::vtu::read_pvd(&pvd).pop().unwrap();
+    let path = dir.join(file);
+    let bytes = std::fs::read(&path).unwrap();
+    let ((p, _, _), _) = mps::io::vtu::read_particle_file::<2>(&bytes, &path).unwrap();
+    p.first(p.len())
+}
+
 fn temp(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("mps_mpi_run_{name}_{}", std::process::id()))
 }
@@ -120,28 +140,43 @@ fn a_distributed_run_records_what_the_serial_run_records() {
         for (a, b) in want.iter().zip(&got) {
             rows_agree(&header, a, b, 1e-8, &format!("{np} processes"));
         }
-        let snapshots = |d: &Path| {
-            std::fs::read_dir(d)
-                .unwrap()
-                .filter(|e| {
-                    let n = e.as_ref().unwrap().file_name();
-                    n.to_string_lossy().ends_with(".vtu")
-                })
-                .count()
-        };
-        assert_eq!(snapshots(&dir), snapshots(&serial));
+        // One .pvtu index per serial snapshot, each naming one piece per process; the
+        // checkpoint's index and one piece per process (the older pieces removed).
+        let ending = |d: &Path, end: &str| files(d).filter(|n| n.ends_with(end)).count();
+        let outputs = ending(&serial, ".vtu");
+        assert_eq!(ending(&dir, ".pvtu"), outputs, "{np} processes: indices");
+        assert_eq!(ending(&dir, ".vtu"), np * outputs, "{np} processes: pieces");
+        let pieces = files(&dir).filter(|n| n.starts_with("checkpoint_")).count();
+        assert_eq!(pieces, np, "{np} processes: checkpoint pieces");
         assert!(dir.join("particles.pvd").exists() && dir.join("checkpoint.bin").exists());
+        // The last snapshot's pieces hold every particle once, as the serial one does.
+        let (a, b) = (last_state(&serial), last_state(&dir));
+        assert_eq!(
+            a.id, b.id,
+            "{np} processes: the particles of the last snapshot"
+        );
+        let l0 = 0.146 / 40.0;
+        for (x, y) in a.position.iter().zip(&b.position) {
+            assert!(
+                (*x - *y).norm() < 1e-6 * l0,
+                "{np} processes: {x:?} against {y:?}"
+            );
+        }
+        // `mps render` draws a snapshot in pieces.
+        let mut render = mps();
+        succeed(render.arg("render").arg(&dir).args(["--time", "0.06"]));
         let _ = std::fs::remove_dir_all(&dir);
     }
     let _ = std::fs::remove_dir_all(&serial);
 }
 
-/// A run on 2 processes stopped after 60 steps (its checkpoint written there) and restarted
-/// in place on 4 ends where the uninterrupted run on 2 ends, within 1e-8 (the pieces are cut
-/// afresh at the restart, so only to round-off).
+/// A run on 2 processes stopped after 60 steps (its checkpoint written there, in pieces) and
+/// restarted in place on 2 ends bit for bit where the uninterrupted run on 2 ends (the
+/// checkpoint keeps the pieces' cuts); restarted on 4 instead, within 1e-8 (the pieces are
+/// cut afresh, so only to round-off).
 #[test]
 fn a_distributed_run_restarts_on_another_number_of_processes() {
-    let (straight, stopped) = (temp("straight"), temp("stopped"));
+    let (straight, stopped, again) = (temp("straight"), temp("stopped"), temp("again"));
     succeed(
         mpirun(2)
             .args(CASE)
@@ -160,6 +195,25 @@ fn a_distributed_run_restarts_on_another_number_of_processes() {
             ])
             .arg(&stopped),
     );
+    copy_folder(&stopped, &again);
+    succeed(
+        mpirun(2)
+            .args(CASE)
+            .args(["--set", "time.end=0.06", "--restart"])
+            .arg(again.join("checkpoint.bin")),
+    );
+    let (a, b) = (last_state(&straight), last_state(&again));
+    assert_eq!(a.id, b.id);
+    assert!(a.position == b.position && a.velocity == b.velocity && a.pressure == b.pressure);
+    let tail = |d: &Path| {
+        let text = std::fs::read_to_string(d.join("steps.csv")).unwrap();
+        text.lines()
+            .rev()
+            .take(20)
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(tail(&straight), tail(&again), "steps.csv after the restart");
     succeed(
         mpirun(4)
             .args(CASE)
@@ -177,6 +231,18 @@ fn a_distributed_run_restarts_on_another_number_of_processes() {
     );
     let _ = std::fs::remove_dir_all(&straight);
     let _ = std::fs::remove_dir_all(&stopped);
+    let _ = std::fs::remove_dir_all(&again);
+}
+
+/// A copy of run folder `from` (files only) as `to`.
+fn copy_folder(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for name in files(from) {
+        let src = from.join(&name);
+        if src.is_file() {
+            std::fs::copy(&src, to.join(&name)).unwrap();
+        }
+    }
 }
 
 /// A case whose pieces would be narrower than their halo is deep is refused with exit 1 and

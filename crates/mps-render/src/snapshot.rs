@@ -4,7 +4,7 @@
 
 use crate::canvas::{Canvas, BLACK, WHITE};
 use crate::colormap::viridis;
-use mps::io::vtu::read_vtu;
+use mps::io::vtu::read_particle_file;
 use std::path::Path;
 
 pub use mps::io::vtu::read_pvd;
@@ -193,8 +193,8 @@ fn fluid_median(pos: &[[f64; 3]], kind: &[u8], axis: usize) -> f64 {
 }
 
 impl Frame {
-    /// Reads a frame from the bytes of VTU file `path` written by the solver (a 3D run
-    /// through the default slice).
+    /// Reads a frame from the bytes of VTU (or `.pvtu`) file `path` written by the solver (a
+    /// 3D run through the default slice).
     pub fn from_vtu(bytes: &[u8], path: &Path) -> mps::error::Result<Frame> {
         Frame::from_vtu_projected(bytes, path, Projection::default())
     }
@@ -205,8 +205,9 @@ impl Frame {
         path: &Path,
         projection: Projection,
     ) -> mps::error::Result<Frame> {
-        let (p, time, spacing) = read_vtu::<3>(bytes, path)?;
-        let dimension = mps::io::vtu::read_vtu_field_data(bytes, "Dimension").unwrap_or(2.0);
+        // A VTU, or the .pvtu index of a distributed run's snapshot (its pieces joined).
+        let ((p, time, spacing), dimension) = read_particle_file::<3>(bytes, path)?;
+        let dimension = dimension.unwrap_or(2.0);
         let pos3: Vec<[f64; 3]> = p.position.iter().map(|x| x.0).collect();
         let kind: Vec<u8> = p.kind.iter().map(|&k| k as u8).collect();
         // Which particles are drawn, in which order, on which page axes; and a depth shade.

@@ -17,7 +17,8 @@ pub struct GroupState<const D: usize> {
     pub stray: usize,
 }
 
-/// The state of every group (indexed by group number) at the simulation's current time.
+/// The state of every group (indexed by group number) at the simulation's current time,
+/// over every process's own particles.
 pub fn group_states<const D: usize>(sim: &Simulation<D>, groups: usize) -> Vec<GroupState<D>> {
     let p = &sim.particles;
     let v = sim.view();
@@ -30,7 +31,7 @@ pub fn group_states<const D: usize>(sim: &Simulation<D>, groups: usize) -> Vec<G
             stray: 0,
         })
         .collect();
-    for i in 0..p.len() {
+    for i in 0..sim.owned() {
         let g = p.group[i];
         if g == NO_GROUP || p.kind[i] != Kind::Fluid || g as usize >= groups {
             continue;
@@ -46,6 +47,7 @@ pub fn group_states<const D: usize>(sim: &Simulation<D>, groups: usize) -> Vec<G
             s.stray += 1;
         }
     }
+    summed_over_processes(sim, &mut out);
     for s in &mut out {
         if s.count > 0 {
             s.centroid = s.centroid / s.count as f64;
@@ -55,6 +57,26 @@ pub fn group_states<const D: usize>(sim: &Simulation<D>, groups: usize) -> Vec<G
     out
 }
 
+/// The groups' sums (centroid and velocity sums, counts) over the processes.
+fn summed_over_processes<const D: usize>(sim: &Simulation<D>, out: &mut [GroupState<D>]) {
+    if !sim.is_distributed() {
+        return;
+    }
+    let mut v: Vec<f64> = Vec::with_capacity(out.len() * (2 * D + 2));
+    for s in out.iter() {
+        v.extend_from_slice(&s.centroid.0);
+        v.extend_from_slice(&s.velocity.0);
+        v.extend([s.count as f64, s.stray as f64]);
+    }
+    sim.sum_over_processes(&mut v);
+    for (s, c) in out.iter_mut().zip(v.chunks_exact(2 * D + 2)) {
+        s.centroid = Vector(std::array::from_fn(|a| c[a]));
+        s.velocity = Vector(std::array::from_fn(|a| c[D + a]));
+        s.count = c[2 * D] as usize;
+        s.stray = c[2 * D + 1] as usize;
+    }
+}
+
 /// Pressure noise near the groups (Pa): RMS over group particles and their fluid neighbours
 /// within re_grad of `p_i - pbar_i`, `pbar_i` the kernel-weighted mean pressure of i's fluid neighbours
 /// within re_grad. A smooth (e.g. hydrostatic) field gives a small value.
@@ -62,19 +84,13 @@ pub fn pressure_noise<const D: usize>(sim: &Simulation<D>) -> f64 {
     let p = &sim.particles;
     let v = sim.view();
     let re = sim.kernels.grad.re;
-    let mut near = vec![false; p.len()];
-    for i in 0..p.len() {
-        if p.group[i] != NO_GROUP && p.kind[i] == Kind::Fluid {
-            near[i] = true;
-            for q in v.pairs(i, re) {
-                if p.kind[q.j] == Kind::Fluid {
-                    near[q.j] = true;
-                }
-            }
-        }
-    }
+    let in_group = |i: usize| p.group[i] != NO_GROUP && p.kind[i] == Kind::Fluid;
+    // A group particle, or a fluid particle with one within re_grad (the pairs are mutual).
+    let near = |i: usize| {
+        in_group(i) || (p.kind[i] == Kind::Fluid && v.pairs(i, re).any(|q| in_group(q.j)))
+    };
     let (mut s2, mut n) = (0.0, 0usize);
-    for i in (0..p.len()).filter(|&i| near[i]) {
+    for i in (0..sim.owned()).filter(|&i| near(i)) {
         let (mut sw, mut swp) = (0.0, 0.0);
         for q in v.pairs(i, re) {
             if p.kind[q.j] == Kind::Fluid {
@@ -87,9 +103,11 @@ pub fn pressure_noise<const D: usize>(sim: &Simulation<D>) -> f64 {
             n += 1;
         }
     }
-    if n == 0 {
+    let mut sums = [s2, n as f64];
+    sim.sum_over_processes(&mut sums);
+    if sums[1] == 0.0 {
         0.0
     } else {
-        (s2 / n as f64).sqrt()
+        (sums[0] / sums[1]).sqrt()
     }
 }

@@ -1,7 +1,7 @@
 //! Stability metrics every run records (cases.md, "Stability metrics"), one row of
 //! `metrics.csv` per output.
 
-use super::surface::surface_counts;
+use super::surface::surface_counts_of;
 use crate::particles::Kind;
 use crate::simulation::Simulation;
 use rayon::prelude::*;
@@ -81,6 +81,46 @@ struct Acc {
 }
 
 impl Acc {
+    /// The sums as numbers (to be summed over a distributed run's processes).
+    fn to_array(self) -> [f64; 16] {
+        let [m0, m1, m2] = self.mom;
+        let [a0, a1, a2] = self.ang;
+        [
+            self.ke,
+            self.u2,
+            self.n,
+            self.pe,
+            m0,
+            m1,
+            m2,
+            a0,
+            a1,
+            a2,
+            self.nd,
+            self.nd2,
+            self.count,
+            self.surf as f64,
+            0.0,
+            0.0,
+        ]
+    }
+
+    /// The sums back from [`Self::to_array`].
+    fn from_array(v: [f64; 16]) -> Acc {
+        Acc {
+            ke: v[0],
+            u2: v[1],
+            n: v[2],
+            pe: v[3],
+            mom: [v[4], v[5], v[6]],
+            ang: [v[7], v[8], v[9]],
+            nd: v[10],
+            nd2: v[11],
+            count: v[12],
+            surf: v[13] as usize,
+        }
+    }
+
     /// The sums of `self` and `a`.
     fn plus(mut self, a: &Acc) -> Acc {
         self.ke += a.ke;
@@ -100,14 +140,16 @@ impl Acc {
 }
 
 impl Metrics {
-    /// Measures the current state of a simulation.
+    /// Measures the current state of a simulation (over every process's own particles).
     pub fn measure<const D: usize>(sim: &Simulation<D>) -> Metrics {
         let p = &sim.particles;
         let l0 = sim.l0();
         let vol = l0.powi(D as i32);
         let g = sim.gravity;
         let n0 = sim.kernels.grad.n0;
-        let idx: Vec<usize> = (0..p.len()).filter(|&i| p.kind[i] == Kind::Fluid).collect();
+        let idx: Vec<usize> = (0..sim.owned())
+            .filter(|&i| p.kind[i] == Kind::Fluid)
+            .collect();
         // Fixed-order reduction: chunks in parallel, summed in sequence.
         let parts: Vec<Acc> = idx
             .par_chunks(4096)
@@ -138,7 +180,9 @@ impl Metrics {
                 a
             })
             .collect();
-        let t = parts.iter().fold(Acc::default(), Acc::plus);
+        let mut sums = parts.iter().fold(Acc::default(), Acc::plus).to_array();
+        sim.sum_over_processes(&mut sums);
+        let t = Acc::from_array(sums);
         let mean = if t.count > 0.0 { t.nd / t.count } else { 0.0 };
         let var = if t.count > 0.0 {
             (t.nd2 / t.count - mean * mean).max(0.0)
@@ -146,7 +190,7 @@ impl Metrics {
             0.0
         };
         let r = &sim.last;
-        let sc = surface_counts(&sim.view(), l0, sim.kernels.grad.re);
+        let sc = surface_counts_of(sim);
         Metrics {
             time: sim.time,
             step: sim.step_count,
@@ -188,7 +232,7 @@ pub fn front_position<const D: usize>(sim: &Simulation<D>) -> f64 {
     let p = &sim.particles;
     let v = sim.view();
     let re = sim.kernels.grad.re;
-    (0..p.len())
+    let own = (0..sim.owned())
         .into_par_iter()
         .filter(|&i| p.kind[i] == Kind::Fluid)
         .filter(|&i| {
@@ -198,14 +242,16 @@ pub fn front_position<const D: usize>(sim: &Simulation<D>) -> f64 {
                 >= 2
         })
         .map(|i| p.position[i][0])
-        .reduce(|| f64::MIN, f64::max)
+        .reduce(|| f64::MIN, f64::max);
+    sim.max_over_processes(own)
 }
 
 /// Largest x of any fluid particle (m).
 pub fn leading_particle<const D: usize>(sim: &Simulation<D>) -> f64 {
     let p = &sim.particles;
-    (0..p.len())
+    let own = (0..sim.owned())
         .filter(|&i| p.kind[i] == Kind::Fluid)
         .map(|i| p.position[i][0])
-        .fold(f64::MIN, f64::max)
+        .fold(f64::MIN, f64::max);
+    sim.max_over_processes(own)
 }

@@ -37,17 +37,27 @@ fn polar<const D: usize>(x: Vector<D>, c: Vector<D>) -> (f64, f64) {
 /// `|(2/N) sum_k a_k exp(-i n theta_k)|` over `(a_k, theta_k)`: the amplitude of mode `n` of
 /// a quantity sampled at angles `theta_k` around a circle.
 fn mode_amplitude(samples: impl Iterator<Item = (f64, f64)>, n: u32) -> f64 {
-    let (mut re, mut im, mut count) = (0.0, 0.0, 0usize);
+    amplitude_of(mode_sums(samples, n))
+}
+
+/// The sums `[Re, Im, count]` (m, m, 1) of mode `n` over `(displacement, angle)` samples.
+fn mode_sums(samples: impl Iterator<Item = (f64, f64)>, n: u32) -> [f64; 3] {
+    let mut s = [0.0; 3];
     for (a, theta) in samples {
         let phase = n as f64 * theta;
-        re += a * phase.cos();
-        im -= a * phase.sin();
-        count += 1;
+        s[0] += a * phase.cos();
+        s[1] -= a * phase.sin();
+        s[2] += 1.0;
     }
-    if count == 0 {
+    s
+}
+
+/// `|eta_n|` (m) from the sums of [`mode_sums`].
+fn amplitude_of(s: [f64; 3]) -> f64 {
+    if s[2] == 0.0 {
         return 0.0;
     }
-    2.0 * re.hypot(im) / count as f64
+    2.0 * s[0].hypot(s[1]) / s[2]
 }
 
 impl<const D: usize> RimMode<D> {
@@ -97,12 +107,24 @@ impl<const D: usize> RimMode<D> {
     /// their initial radii (Lagrangian, so the lattice's staircase edge does not count).
     /// Particles no longer present (removed by outflow) are left out.
     pub fn amplitude(&self, p: &Particles<D>) -> f64 {
-        let samples = (0..p.len()).filter_map(|i| {
+        amplitude_of(self.sums(p, p.len()))
+    }
+
+    /// The mode's amplitude (m) over every process's own particles of `sim`.
+    pub fn amplitude_in(&self, sim: &crate::simulation::Simulation<D>) -> f64 {
+        let mut s = self.sums(&sim.particles, sim.owned());
+        sim.sum_over_processes(&mut s);
+        amplitude_of(s)
+    }
+
+    /// The mode's sums over the rim particles among `0 .. n` of `p`.
+    fn sums(&self, p: &Particles<D>, n: usize) -> [f64; 3] {
+        let samples = (0..n).filter_map(|i| {
             let r0 = self.initial.get(&p.id[i])?;
             let (r, theta) = polar(p.position[i], self.center);
             Some((r - r0, theta))
         });
-        mode_amplitude(samples, self.mode)
+        mode_sums(samples, self.mode)
     }
 }
 

@@ -37,6 +37,18 @@ pub fn is_deep<const D: usize>(i: usize, v: &View<D>, l0: f64) -> bool {
     covered
 }
 
+/// The surface diagnostics of a simulation's state, over every process's own particles.
+pub fn surface_counts_of<const D: usize>(sim: &crate::simulation::Simulation<D>) -> SurfaceCounts {
+    let c = surface_counts(&sim.view(), sim.owned(), sim.l0(), sim.kernels.grad.re);
+    let mut v = [c.isolated, c.false_surface, c.surface_skin].map(|x| x as f64);
+    sim.sum_over_processes(&mut v);
+    SurfaceCounts {
+        isolated: v[0] as usize,
+        false_surface: v[1] as usize,
+        surface_skin: v[2] as usize,
+    }
+}
+
 /// Counts over the fluid particles of one state.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SurfaceCounts {
@@ -49,9 +61,10 @@ pub struct SurfaceCounts {
     pub surface_skin: usize,
 }
 
-/// The surface diagnostics of view `v` (spacing `l0`, gradient radius `re`, both m).
-pub fn surface_counts<const D: usize>(v: &View<D>, l0: f64, re: f64) -> SurfaceCounts {
-    (0..v.pos.len())
+/// The surface diagnostics of the particles `0 .. n` of view `v` (spacing `l0`, gradient
+/// radius `re`, both m); their neighbours may lie beyond `n` (a distributed run's halo).
+pub fn surface_counts<const D: usize>(v: &View<D>, n: usize, l0: f64, re: f64) -> SurfaceCounts {
+    (0..n)
         .into_par_iter()
         .filter(|&i| v.kind[i] == Kind::Fluid)
         .map(|i| {
@@ -117,7 +130,7 @@ mod tests {
         pos.push(Vector([0.5, 0.5]));
         let n = pos.len();
         let cloud = Cloud::new(pos, vec![Vector::zero(); n], vec![1.0; n], 0.0, 3.4 * l0);
-        let c = surface_counts(&cloud.view(), l0, 2.1 * l0);
+        let c = surface_counts(&cloud.view(), n, l0, 2.1 * l0);
         assert_eq!(c.isolated, 1);
         assert_eq!(c.false_surface, 0);
     }

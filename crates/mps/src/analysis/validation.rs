@@ -313,7 +313,13 @@ pub fn rotating_disc<const D: usize>(
             ),
         ));
     }
-    let r99 = radius_99(&sim.particles, disc.center);
+    // The radii of every process's own fluid particles (a distributed run's, gathered).
+    let own = &sim.particles;
+    let radii: Vec<f64> = (0..sim.owned())
+        .filter(|&i| own.kind[i] == crate::particles::Kind::Fluid)
+        .map(|i| (own.position[i] - disc.center).norm())
+        .collect();
+    let r99 = radius_99(sim.gather_over_processes(&radii));
     out.push(ValidationResult::new(
         "rotating_disc_radius",
         r99,
@@ -322,8 +328,10 @@ pub fn rotating_disc<const D: usize>(
         l0 / disc.radius,
         "radius holding 99 % of the fluid at the end (m), within one spacing".into(),
     ));
-    let counts = super::surface::surface_counts(&sim.view(), l0, sim.kernels.grad.re);
-    let fluid = sim.particles.count(crate::particles::Kind::Fluid).max(1);
+    let counts = super::surface::surface_counts_of(sim);
+    let fluid = sim
+        .count_over_processes(crate::particles::Kind::Fluid)
+        .max(1);
     let iso = counts.isolated as f64 / fluid as f64;
     out.push(ValidationResult::new(
         "rotating_disc_isolated_fraction",

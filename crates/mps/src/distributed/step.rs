@@ -39,8 +39,10 @@ pub struct MpiDomain<const D: usize> {
     world: SimpleCommunicator,
     /// Halo depth (m), also the Morton cell side.
     depth: f64,
-    /// The cells, fixed at the first redistribution.
+    /// The cells, fixed at the first redistribution (or taken from a checkpoint).
     grid: Option<MortonGrid<D>>,
+    /// Whether the first redistribution (every process holding the whole case) is done.
+    started: bool,
     /// The Morton cuts (one piece per process).
     cuts: Vec<u64>,
     /// Own particles.
@@ -67,6 +69,7 @@ impl<const D: usize> MpiDomain<D> {
             world,
             depth,
             grid: None,
+            started: false,
             cuts: Vec::new(),
             owned: 0,
             send: vec![Vec::new(); size],
@@ -82,8 +85,8 @@ impl<const D: usize> MpiDomain<D> {
     /// Every own particle's row with its cell key; on the first call (every process holds
     /// the whole case) the grid and cuts are made from all particles.
     fn own_rows(&mut self, p: &Particles<D>) -> Vec<OwnRow> {
-        let first = self.grid.is_none();
-        if first {
+        let first = !self.started;
+        if first && self.grid.is_none() {
             let lo: [f64; D] = std::array::from_fn(|a| {
                 p.position
                     .iter()
@@ -99,7 +102,10 @@ impl<const D: usize> MpiDomain<D> {
             keys.sort_unstable();
             self.cuts = super::partition::splitters(&keys, self.world.size() as usize);
             self.grid = Some(grid);
+        }
+        if first {
             self.owned = p.len();
+            self.started = true;
         }
         let grid = self.grid.expect("set above");
         let me = self.rank();
@@ -270,7 +276,7 @@ impl<const D: usize> Domain<D> for MpiDomain<D> {
     }
 
     fn redistribute(&mut self, p: &mut Particles<D>) -> Result<(), String> {
-        let first = self.grid.is_none();
+        let first = !self.started;
         let rows = self.own_rows(p);
         let mut rows = if first {
             rows
@@ -330,6 +336,48 @@ impl<const D: usize> Domain<D> for MpiDomain<D> {
 
     fn any(&mut self, x: bool) -> bool {
         self.reduce(x as u32, SystemOperation::max()) > 0
+    }
+
+    fn sum_reals(&mut self, v: &mut [f64]) {
+        let mine = v.to_vec();
+        self.world
+            .all_reduce_into(&mine[..], v, SystemOperation::sum());
+    }
+
+    fn all_gather(&mut self, v: &[f64]) -> Vec<f64> {
+        let size = self.world.size() as usize;
+        let (all, _) = exchange_numbers(&self.world, &vec![v.to_vec(); size]);
+        all
+    }
+
+    fn process(&self) -> (usize, usize) {
+        (self.world.rank() as usize, self.world.size() as usize)
+    }
+
+    fn layout(&self) -> Vec<u64> {
+        let Some(grid) = self.grid else {
+            return Vec::new();
+        };
+        let mut out = vec![D as u64, self.world.size() as u64, grid.cell.to_bits()];
+        out.extend(grid.lo.iter().map(|x| x.to_bits()));
+        out.extend_from_slice(&self.cuts);
+        out
+    }
+
+    fn adopt(&mut self, layout: &[u64]) -> bool {
+        let size = self.world.size() as usize;
+        let fits = layout.len() == 3 + D + size + 1
+            && layout[0] == D as u64
+            && layout[1] == size as u64
+            && f64::from_bits(layout[2]) == self.depth;
+        if fits && self.grid.is_none() {
+            self.grid = Some(MortonGrid {
+                lo: std::array::from_fn(|a| f64::from_bits(layout[3 + a])),
+                cell: self.depth,
+            });
+            self.cuts = layout[3 + D..].to_vec();
+        }
+        fits
     }
 
     fn solve(

@@ -1,6 +1,11 @@
 //! Checkpoints: the complete particle state and clock of a run, serialised with serde in
 //! postcard's binary format behind a magic tag, written atomically at every output step, so a
 //! long run can be restarted, or extended to a later end time, from its last checkpoint.
+//!
+//! A distributed run writes one piece per process (`checkpoint_STEP_pRANK.bin`, the
+//! process's own particles as packed rows) and the first process the index `checkpoint.bin`
+//! naming them with the pieces' layout; reading it assembles the whole state, so it restarts
+//! on any number of processes (bit for bit on as many, which cut the same pieces).
 
 use super::atomic::write_atomic;
 use crate::error::{Error, Result};
@@ -11,7 +16,10 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The file's first bytes: format name and version.
-const MAGIC: &[u8; 8] = b"MPSCKPT4";
+const MAGIC: &[u8; 8] = b"MPSCKPT5";
+
+/// The first bytes of a distributed run's piece.
+const PIECE_MAGIC: &[u8; 8] = b"MPSPIEC1";
 
 /// What a checkpoint holds.
 #[derive(Serialize, Deserialize)]
@@ -26,8 +34,25 @@ struct State<const D: usize> {
     step: u64,
     /// Fluid particles removed by outflow so far.
     removed: u64,
-    /// Every particle field.
+    /// Every particle field (none when the particles are in `pieces`).
     particles: Particles<D>,
+    /// A distributed run's pieces, file names beside this one, in rank order.
+    pieces: Vec<String>,
+    /// A distributed run's layout of pieces (`Domain::layout`).
+    layout: Vec<u64>,
+}
+
+/// One process's piece of a distributed run's checkpoint.
+#[derive(Serialize, Deserialize)]
+struct Piece {
+    /// [`crate::input::Case::fingerprint`] of the case that wrote it.
+    case: u64,
+    /// Steps taken.
+    step: u64,
+    /// Numbers per particle (`Particles::packed_width`).
+    width: u64,
+    /// The process's own particles, packed.
+    rows: Vec<f64>,
 }
 
 /// Serialises the state of `sim` (time, step, every particle field).
@@ -39,15 +64,123 @@ pub fn checkpoint_bytes<const D: usize>(sim: &Simulation<D>) -> Vec<u8> {
         step: sim.step_count,
         removed: sim.outflow_removed,
         particles: sim.particles.clone(),
+        pieces: Vec::new(),
+        layout: Vec::new(),
     };
     let mut out = MAGIC.to_vec();
     out.extend(postcard::to_allocvec(&state).expect("particles serialise"));
     out
 }
 
-/// Writes the checkpoint of `sim` to `path` atomically.
+/// Writes the checkpoint of `sim` to `path` atomically; on several processes, each writes
+/// its piece beside it, then the first the index at `path`, then each removes its older
+/// pieces (collective: an error on any process is every process's).
 pub fn write_checkpoint<const D: usize>(sim: &Simulation<D>, path: &Path) -> Result<()> {
-    write_atomic(path, &checkpoint_bytes(sim))
+    if !sim.is_distributed() {
+        return write_atomic(path, &checkpoint_bytes(sim));
+    }
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let (rank, size) = sim.process();
+    let name = |r: usize| format!("checkpoint_{}_p{r}.bin", sim.step_count);
+    let mine = name(rank);
+    let mut rows = Vec::with_capacity(sim.owned() * Particles::<D>::packed_width());
+    for i in 0..sim.owned() {
+        sim.particles.pack(i, &mut rows);
+    }
+    let piece = Piece {
+        case: sim.case.fingerprint(),
+        step: sim.step_count,
+        width: Particles::<D>::packed_width() as u64,
+        rows,
+    };
+    let mut bytes = PIECE_MAGIC.to_vec();
+    bytes.extend(postcard::to_allocvec(&piece).expect("numbers serialise"));
+    agree(sim, write_atomic(&dir.join(&mine), &bytes))?;
+    let index = if sim.is_first_process() {
+        let state = State::<D> {
+            dimension: D as u32,
+            case: sim.case.fingerprint(),
+            time: sim.time,
+            step: sim.step_count,
+            removed: sim.outflow_removed,
+            particles: Particles::default(),
+            pieces: (0..size).map(name).collect(),
+            layout: sim.layout(),
+        };
+        let mut out = MAGIC.to_vec();
+        out.extend(postcard::to_allocvec(&state).expect("a state serialises"));
+        write_atomic(path, &out)
+    } else {
+        Ok(())
+    };
+    agree(sim, index)?;
+    // The index names the new pieces now: this process's older ones go.
+    let suffix = format!("_p{rank}.bin");
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let f = e.file_name().to_string_lossy().to_string();
+            if f.starts_with("checkpoint_") && f.ends_with(&suffix) && f != mine {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `r` on this process, and an error on every process when any process's failed (so that
+/// none goes on alone into the next collective step).
+pub fn agree<const D: usize>(sim: &Simulation<D>, r: Result<()>) -> Result<()> {
+    let mut failed = [r.is_err() as u8 as f64];
+    sim.sum_over_processes(&mut failed);
+    match r {
+        Err(e) => Err(e),
+        Ok(()) if failed[0] > 0.0 => Err(Error::Format {
+            path: std::path::PathBuf::from("."),
+            message: "another process of the run could not write its files".into(),
+        }),
+        Ok(()) => Ok(()),
+    }
+}
+
+/// The particles of a distributed run's checkpoint: its pieces (beside `path`) read and
+/// joined, in id order.
+fn join_pieces<const D: usize>(state: &State<D>, path: &Path) -> Result<Particles<D>> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut p = Particles::<D>::default();
+    for name in &state.pieces {
+        let at = dir.join(name);
+        let bad = |message: String| Error::Checkpoint {
+            path: at.clone(),
+            message,
+        };
+        if name.contains(['/', '\\']) || name.starts_with('.') {
+            return Err(bad("not a piece name beside the checkpoint".into()));
+        }
+        let bytes = std::fs::read(&at).map_err(|e| Error::io(&at, e))?;
+        let piece: Piece = bytes
+            .strip_prefix(PIECE_MAGIC.as_slice())
+            .and_then(|b| postcard::from_bytes(b).ok())
+            .ok_or_else(|| bad("not a piece of an MPS checkpoint".into()))?;
+        if piece.case != state.case || piece.step != state.step {
+            return Err(bad(format!(
+                "a piece of step {} of another run, the checkpoint is of step {}",
+                piece.step, state.step
+            )));
+        }
+        let width = Particles::<D>::packed_width();
+        if piece.width != width as u64 || !piece.rows.len().is_multiple_of(width) {
+            return Err(bad("its rows are not this version's particles".into()));
+        }
+        for row in piece.rows.chunks_exact(width) {
+            p.push_packed(row)
+                .ok_or_else(|| bad("a particle row out of range".into()))?;
+        }
+    }
+    p.ids_to_indices();
+    let mut order: Vec<u32> = (0..p.len() as u32).collect();
+    order.sort_unstable_by_key(|&k| p.id[k as usize]);
+    p.permute(&order);
+    Ok(p)
 }
 
 /// Checks that every index in `p` points where it may: phases into the case's phase table,
@@ -91,6 +224,10 @@ fn decode<const D: usize>(bytes: &[u8], path: &Path) -> Result<State<D>> {
             "checkpoint is {}D, the case is {D}D",
             state.dimension
         )));
+    }
+    let mut state = state;
+    if !state.pieces.is_empty() {
+        state.particles = join_pieces(&state, path)?;
     }
     if let Some(f) = state.particles.inconsistent_field() {
         return Err(bad(format!("field `{f}` has the wrong length")));
@@ -146,6 +283,7 @@ pub fn restore<const D: usize>(sim: &mut Simulation<D>, bytes: &[u8], path: &Pat
     sim.time = state.time;
     sim.step_count = state.step;
     sim.outflow_removed = state.removed;
+    sim.layout = state.layout;
     // Only the neighbour list is rebuilt: every stored array comes back as saved, so the
     // restarted run continues bit for bit.
     sim.rebuild_neighbors();

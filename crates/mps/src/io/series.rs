@@ -17,12 +17,16 @@ pub enum Cell {
     Count(u64),
 }
 
-/// A CSV file rows are appended to.
+/// A CSV file rows are appended to (or, for the processes of a distributed run that do not
+/// write the shared files, none: every row is dropped).
 pub struct Series {
     path: PathBuf,
-    writer: csv::Writer<BufWriter<File>>,
+    writer: Option<csv::Writer<BufWriter<File>>>,
     /// Whether the header is still to come from the first typed row.
     header_pending: bool,
+    /// The first error of a write, kept until [`Series::flush`] reports it (so that a run's
+    /// processes meet a failed write at the same point of the run).
+    error: Option<Error>,
 }
 
 impl Series {
@@ -38,23 +42,43 @@ impl Series {
         }
         Ok(Series {
             path: path.to_path_buf(),
-            writer,
+            writer: Some(writer),
             header_pending: header.is_none(),
+            error: None,
         })
     }
 
-    /// Appends one row: a struct (named columns) or a sequence of cells.
+    /// [`Series::create`] when `write`, otherwise a series that writes nothing.
+    pub fn create_if(write: bool, path: &Path, header: Option<&[String]>) -> Result<Series> {
+        if write {
+            return Series::create(path, header);
+        }
+        Ok(Series {
+            path: path.to_path_buf(),
+            writer: None,
+            header_pending: false,
+            error: None,
+        })
+    }
+
+    /// Appends one row: a struct (named columns) or a sequence of cells. A failed write is
+    /// reported by the next [`Series::flush`].
     pub fn push<T: Serialize>(&mut self, row: &T) -> Result<()> {
-        self.writer
-            .serialize(row)
-            .map_err(|e| csv_error(&self.path, e))
+        if let (Some(w), None) = (&mut self.writer, &self.error) {
+            self.error = w.serialize(row).err().map(|e| csv_error(&self.path, e));
+        }
+        Ok(())
     }
 
     /// Appends one row as written by an earlier run (text fields, carried over unchanged).
     pub fn push_record(&mut self, fields: &[String]) -> Result<()> {
-        self.writer
-            .write_record(fields)
-            .map_err(|e| csv_error(&self.path, e))
+        if let (Some(w), None) = (&mut self.writer, &self.error) {
+            self.error = w
+                .write_record(fields)
+                .err()
+                .map(|e| csv_error(&self.path, e));
+        }
+        Ok(())
     }
 
     /// Starts the file with an earlier run's `header` and `rows`; typed rows pushed after
@@ -62,9 +86,11 @@ impl Series {
     pub fn carry(&mut self, header: &[String], rows: &[Vec<String>]) -> Result<()> {
         if self.header_pending {
             let file = File::create(&self.path).map_err(|e| Error::io(&self.path, e))?;
-            self.writer = csv::WriterBuilder::new()
-                .has_headers(false)
-                .from_writer(BufWriter::new(file));
+            self.writer = Some(
+                csv::WriterBuilder::new()
+                    .has_headers(false)
+                    .from_writer(BufWriter::new(file)),
+            );
             self.header_pending = false;
             self.push_record(header)?;
         }
@@ -76,7 +102,13 @@ impl Series {
 
     /// Writes everything appended so far to the file.
     pub fn flush(&mut self) -> Result<()> {
-        self.writer.flush().map_err(|e| Error::io(&self.path, e))
+        if let Some(e) = self.error.take() {
+            return Err(e);
+        }
+        match &mut self.writer {
+            Some(w) => w.flush().map_err(|e| Error::io(&self.path, e)),
+            None => Ok(()),
+        }
     }
 }
 

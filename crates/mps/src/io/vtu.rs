@@ -58,6 +58,52 @@ pub fn vtu_bytes<const D: usize>(p: &Particles<D>, time: f64, spacing: f64) -> V
     out
 }
 
+/// The index (`.pvtu`) of a snapshot written in pieces, one VTU file per process (`pieces`,
+/// file names beside it), whose arrays are those [`vtu_bytes`] writes for `Particles<D>`.
+pub fn pvtu_bytes<const D: usize>(pieces: &[String]) -> Vec<u8> {
+    let columns = Particles::<D>::default().columns();
+    let mut s = String::from(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n<PUnstructuredGrid GhostLevel=\"0\">\n<PPointData Scalars=\"pressure\" Vectors=\"velocity\">\n",
+    );
+    let array = |c: &Column| {
+        format!(
+            "<PDataArray type=\"{}\" Name=\"{}\" NumberOfComponents=\"{}\"/>\n",
+            c.vtk_type, c.name, c.components
+        )
+    };
+    for c in columns.iter().filter(|c| c.name != "Points") {
+        s.push_str(&array(c));
+    }
+    s.push_str("</PPointData>\n<PPoints>\n");
+    if let Some(c) = columns.iter().find(|c| c.name == "Points") {
+        s.push_str(&array(c).replace(" Name=\"Points\"", ""));
+    }
+    s.push_str("</PPoints>\n<PCells>\n<PDataArray type=\"Int64\" Name=\"connectivity\"/>\n<PDataArray type=\"Int64\" Name=\"offsets\"/>\n<PDataArray type=\"UInt8\" Name=\"types\"/>\n</PCells>\n");
+    for p in pieces {
+        s.push_str(&format!("<Piece Source=\"{p}\"/>\n"));
+    }
+    s.push_str("</PUnstructuredGrid>\n</VTKFile>\n");
+    s.into_bytes()
+}
+
+/// The piece files a `.pvtu` index names (`None` when `bytes` is not such an index).
+pub fn pvtu_pieces(bytes: &[u8]) -> Option<Vec<String>> {
+    let text = std::str::from_utf8(bytes).ok()?;
+    if !text.contains("<PUnstructuredGrid") {
+        return None;
+    }
+    let key = "Source=\"";
+    Some(
+        text.lines()
+            .filter(|l| l.contains("<Piece "))
+            .filter_map(|l| {
+                let at = l.find(key)? + key.len();
+                Some(l[at..at + l[at..].find('"')?].to_string())
+            })
+            .collect(),
+    )
+}
+
 /// A ParaView collection (`.pvd`) listing `(time, file)` entries.
 pub fn pvd_bytes(entries: &[(f64, String)]) -> Vec<u8> {
     let mut s = String::from(
@@ -152,6 +198,46 @@ pub fn read_vtu_arrays(bytes: &[u8]) -> std::result::Result<Vec<(String, Vec<f64
 /// A particle file read back: the particles, and the time (s) and spacing (m) when the file
 /// records them.
 pub type Snapshot<const D: usize> = (Particles<D>, Option<f64>, Option<f64>);
+
+/// Reads the bytes of a particle file `path`, a VTU ([`vtu_bytes`]) or the `.pvtu` index of
+/// a snapshot in pieces ([`pvtu_bytes`], the pieces read from beside it and joined in id
+/// order); returns the particles, time and spacing, and the dimension the file records.
+pub fn read_particle_file<const D: usize>(
+    bytes: &[u8],
+    path: &Path,
+) -> Result<(Snapshot<D>, Option<f64>)> {
+    let Some(pieces) = pvtu_pieces(bytes) else {
+        let dimension = read_vtu_field_data(bytes, "Dimension");
+        return Ok((read_vtu(bytes, path)?, dimension));
+    };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut parts = Vec::with_capacity(pieces.len());
+    let mut first = None;
+    for name in &pieces {
+        if name.contains(['/', '\\']) || name.starts_with('.') {
+            return Err(Error::Format {
+                path: path.to_path_buf(),
+                message: format!("piece `{name}` is not a file beside the index"),
+            });
+        }
+        let at = dir.join(name);
+        let b = std::fs::read(&at).map_err(|e| Error::io(&at, e))?;
+        let (s, dim) = (
+            read_vtu::<D>(&b, &at)?,
+            read_vtu_field_data(&b, "Dimension"),
+        );
+        first.get_or_insert((s.1, s.2, dim));
+        parts.push(s.0);
+    }
+    let Some((time, spacing, dimension)) = first else {
+        return Err(Error::Format {
+            path: path.to_path_buf(),
+            message: "the index names no piece".into(),
+        });
+    };
+    let p = Particles::joined(parts.iter().map(|p| (p, p.len())));
+    Ok(((p, time, spacing), dimension))
+}
 
 /// Reads the bytes of VTU file `path` (written by [`vtu_bytes`]) back into particles.
 pub fn read_vtu<const D: usize>(bytes: &[u8], path: &Path) -> Result<Snapshot<D>> {

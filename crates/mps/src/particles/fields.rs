@@ -474,6 +474,30 @@ impl<const D: usize> Particles<D> {
     pub fn count(&self, kind: Kind) -> usize {
         self.kind.iter().filter(|&&k| k == kind).count()
     }
+
+    /// The particles `0 .. n` alone (an index to a particle beyond `n` becomes [`NONE`]).
+    pub fn first(&self, n: usize) -> Particles<D> {
+        Particles::joined(std::iter::once((self, n)))
+    }
+
+    /// The particles `0 .. n` of each part, one after the other, in id order, their index
+    /// fields pointing within the whole.
+    pub fn joined<'a>(parts: impl Iterator<Item = (&'a Particles<D>, usize)>) -> Particles<D> {
+        let mut out = Particles::default();
+        let mut row = Vec::with_capacity(Self::packed_width());
+        for (p, n) in parts {
+            for i in 0..n.min(p.len()) {
+                row.clear();
+                p.pack(i, &mut row);
+                out.push_packed(&row).expect("a row packed here reads back");
+            }
+        }
+        out.ids_to_indices();
+        let mut order: Vec<u32> = (0..out.len() as u32).collect();
+        order.sort_unstable_by_key(|&k| out.id[k as usize]);
+        out.permute(&order);
+        out
+    }
 }
 
 #[cfg(test)]

@@ -2,6 +2,10 @@
 //! [`Recorder`] (VTU + PVD snapshots, metrics, step, probe, group and front series,
 //! checkpoints), runs the validations at the end and writes the run summary; on breakdown it
 //! writes the last good state and the breakdown record.
+//!
+//! A distributed run's processes all run this loop on their own particles: every measurement
+//! is collective, the first process writes the shared files, and a failed write on any
+//! process is every process's (`agree`), so that none waits alone for the others.
 
 pub mod recorder;
 
@@ -16,14 +20,15 @@ use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
 use crate::input::case::{Case, ValidationSpec};
 use crate::input::reference::ReferenceFile;
+use crate::io::checkpoint::agree;
 use crate::io::series::Series;
 use crate::io::write_atomic;
 use crate::particles::Kind;
 use crate::particles::Vector;
-use crate::simulation::{Breakdown, Simulation, StepReport};
+use crate::simulation::{Breakdown, BreakdownReason, Simulation, StepReport};
 use recorder::Recorder;
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Progress of a run, passed to the observer after every step.
@@ -61,17 +66,27 @@ struct Totals {
     wall_seconds: f64,
 }
 
-/// One output, and the observer told of its snapshot.
+/// One output, and the observer told of its snapshot (collective).
 fn output<const D: usize>(
     rec: &mut Recorder<D>,
     sim: &Simulation<D>,
     observer: &mut dyn Observer,
 ) -> Result<()> {
     let index = rec.outputs;
-    if let Some(path) = rec.output(sim)? {
+    let written = rec.output(sim);
+    let path = agree_on(sim, written)?;
+    if let Some(path) = path {
         observer.on_snapshot(index, &path);
     }
     Ok(())
+}
+
+/// [`agree`] for a result with a value.
+fn agree_on<const D: usize, T>(sim: &Simulation<D>, r: Result<T>) -> Result<T> {
+    match r {
+        Ok(v) => agree(sim, Ok(())).map(|_| v),
+        Err(e) => agree(sim, Err(e)).map(|_| unreachable!("an error stays one")),
+    }
 }
 
 /// Steps to the end time, writing outputs at the first step past each output time
@@ -135,14 +150,63 @@ fn step_loop<const D: usize>(
     }
     t.wall_seconds = start.elapsed().as_secs_f64();
     if let Some(b) = &t.breakdown {
-        rec.snapshot(sim, "breakdown_last_good_state.vtu")?;
+        let last_good = rec.snapshot(sim, "breakdown_last_good_state.vtu")?;
         rec.metrics_row(sim)?;
-        write_breakdown(b, rec.out_dir(), sim.case.output.vtu)?;
+        let b = the_breakdown(sim, b);
+        let written = match sim.is_first_process() {
+            true => write_breakdown(&b, rec.out_dir(), last_good),
+            false => Ok(()),
+        };
+        agree(sim, written)?;
+        t.breakdown = Some(b);
     } else if sim.step_count != last_output_step || rec.outputs <= 1 {
         output(rec, sim, observer)?;
     }
-    rec.flush()?;
+    let flushed = rec.flush();
+    agree(sim, flushed)?;
     Ok(t)
+}
+
+/// The breakdown a distributed run reports (collective): the first process's own reason, or
+/// that of the lowest process that found one (the others saw `Elsewhere`), with the
+/// particles of every process. On one process, `b` itself.
+fn the_breakdown<const D: usize>(sim: &Simulation<D>, b: &Breakdown) -> Breakdown {
+    if !sim.is_distributed() {
+        return b.clone();
+    }
+    let found = !matches!(b.reason, BreakdownReason::Elsewhere);
+    let flags = sim.gather_over_processes(&[found as u8 as f64]);
+    let rank = flags.iter().position(|&f| f > 0.0).unwrap_or(0);
+    let me = sim.process().0;
+    let text: Vec<f64> = match me == rank {
+        true => b.reason.to_string().bytes().map(f64::from).collect(),
+        false => Vec::new(),
+    };
+    let why: Vec<u8> = sim
+        .gather_over_processes(&text)
+        .into_iter()
+        .map(|c| c as u8)
+        .collect();
+    let ids: Vec<f64> = b.particles.iter().map(|&i| i as f64).collect();
+    let mut particles: Vec<u32> = sim
+        .gather_over_processes(&ids)
+        .into_iter()
+        .map(|i| i as u32)
+        .collect();
+    particles.sort_unstable();
+    particles.dedup();
+    let reason = match me == rank {
+        true => b.reason.clone(),
+        false => BreakdownReason::OnProcess {
+            rank,
+            why: String::from_utf8_lossy(&why).into_owned(),
+        },
+    };
+    Breakdown {
+        reason,
+        particles,
+        ..b.clone()
+    }
 }
 
 /// The record of a breakdown (`breakdown.toml`).
@@ -175,7 +239,7 @@ fn following_output(next: f64, now: f64, interval: f64) -> f64 {
 
 /// `breakdown.toml`: time, step, reason and the particles involved (and where the last good
 /// state is, when VTU output is on).
-fn write_breakdown(b: &Breakdown, out: &Path, vtu: bool) -> Result<()> {
+fn write_breakdown(b: &Breakdown, out: &Path, last_good: Option<PathBuf>) -> Result<()> {
     let record = BreakdownRecord {
         time: b.time,
         step: b.step,
@@ -183,10 +247,9 @@ fn write_breakdown(b: &Breakdown, out: &Path, vtu: bool) -> Result<()> {
         message: b.to_string(),
         particles: b.particles.clone(),
     };
-    let state = if vtu {
-        "the last good state is in breakdown_last_good_state.vtu"
-    } else {
-        "no particle file was written (output.vtu = false); checkpoint.bin holds the last output"
+    let state = match last_good.as_ref().and_then(|p| p.file_name()) {
+        Some(f) => format!("the last good state is in {}", f.to_string_lossy()),
+        None => "no particle file was written (output.vtu = false); checkpoint.bin holds the last output".into(),
     };
     let text = format!(
         "# The run broke down; {state}.\n{}",
@@ -257,17 +320,26 @@ pub fn run_stepped<const D: usize>(
             Recorder::resume(sim, out, front_wall, from)?
         }
         None => {
-            let mut rec = Recorder::create(sim, out, front_wall)?;
+            let created = Recorder::create(sim, out, front_wall);
+            let mut rec = agree_on(sim, created)?;
             rec.sample(sim)?;
             output(&mut rec, sim, observer)?;
             rec
         }
     };
     let totals = step_loop(sim, &mut rec, observer, stepper)?;
-    write_smoothed_probes(sim, &rec, out)?;
-    let validation = validate(sim, &rec, out)?;
+    let first = sim.is_first_process();
+    let smoothed = match first {
+        true => write_smoothed_probes(sim, &rec, out),
+        false => Ok(()),
+    };
+    agree(sim, smoothed)?;
+    let validation = validate(sim, &rec, out);
+    let validation = agree_on(sim, validation)?;
     let summary = summarise(sim, &rec, &totals, validation);
-    write_atomic(&out.join("summary.toml"), summary.to_toml().as_bytes())?;
+    if first {
+        write_atomic(&out.join("summary.toml"), summary.to_toml().as_bytes())?;
+    }
     Ok(summary)
 }
 
@@ -308,7 +380,8 @@ fn dam_break_front<const D: usize>(
 ) -> Result<ValidationResult> {
     let (result, rows) = dam_break(&rec.front_series, column_width, g, l0);
     let header = ["T", "Z_experiment", "Z_simulation", "difference"].map(String::from);
-    let mut csv = Series::create(&out.join("dam_break_front.csv"), Some(&header))?;
+    let path = out.join("dam_break_front.csv");
+    let mut csv = Series::create_if(rec.writes_shared_files(), &path, Some(&header))?;
     for &(t, experiment, simulation) in &rows {
         let difference = simulation - experiment;
         csv.push(&FrontRow {
@@ -400,6 +473,7 @@ fn validate<const D: usize>(
             };
             let what = format!("probe {probe}");
             let tolerances = (*rms_tolerance, *peak_tolerance);
+            let out = rec.writes_shared_files().then_some(out);
             return compare_with_curve(&what, &series, reference, tolerances, out);
         }
         Some(ValidationSpec::FrontReference {
@@ -409,6 +483,7 @@ fn validate<const D: usize>(
             ..
         }) => {
             let tolerances = (*rms_tolerance, *peak_tolerance);
+            let out = rec.writes_shared_files().then_some(out);
             return compare_with_curve("front", &rec.front_series, reference, tolerances, out);
         }
         None => None,
@@ -417,17 +492,20 @@ fn validate<const D: usize>(
 }
 
 /// A series against the case's reference curve: `reference_comparison.csv` (time, reference,
-/// simulation, difference) and the RMS and peak figures.
+/// simulation, difference) in `out` when given, and the RMS and peak figures.
 fn compare_with_curve(
     what: &str,
     series: &[(f64, f64)],
     reference: &ReferenceFile,
     tolerances: (f64, f64),
-    out: &Path,
+    out: Option<&Path>,
 ) -> Result<Vec<ValidationResult>> {
     let (rows, rms, peak) = against_curve(series, &reference.curve);
     let header = ["time", "reference", "simulation", "difference"].map(String::from);
-    let mut csv = Series::create(&out.join("reference_comparison.csv"), Some(&header))?;
+    let path = out
+        .unwrap_or(Path::new("."))
+        .join("reference_comparison.csv");
+    let mut csv = Series::create_if(out.is_some(), &path, Some(&header))?;
     for &(t, r, s) in &rows {
         csv.push(&[t, r, s, s - r])?;
     }
@@ -451,13 +529,15 @@ fn summarise<const D: usize>(
 ) -> RunSummary {
     let m1 = Metrics::measure(sim);
     let m0 = rec.first_metrics.clone().unwrap_or_else(|| m1.clone());
-    let total = sim.particles.len();
+    let [fluid, wall, dummy] =
+        [Kind::Fluid, Kind::Wall, Kind::Dummy].map(|k| sim.count_over_processes(k));
+    let total = fluid + wall + dummy;
     RunSummary {
         case: sim.case.name.clone(),
         scheme: sim.scheme.name.clone(),
-        fluid_particles: sim.particles.count(Kind::Fluid),
-        wall_particles: sim.particles.count(Kind::Wall),
-        dummy_particles: sim.particles.count(Kind::Dummy),
+        fluid_particles: fluid,
+        wall_particles: wall,
+        dummy_particles: dummy,
         spacing: sim.l0(),
         steps: sim.step_count,
         time: sim.time,
@@ -498,12 +578,18 @@ fn summarise<const D: usize>(
     }
 }
 
-/// Density of group `k` (kg/m^3): that of its first fluid particle.
+/// Density of group `k` (kg/m^3): that of its first fluid particle (on the first process
+/// that holds one; collective).
 fn group_density<const D: usize>(sim: &Simulation<D>, k: usize) -> Option<f64> {
     let p = &sim.particles;
-    (0..p.len())
+    let own = (0..sim.owned())
         .find(|&i| p.group[i] as usize == k && p.kind[i] == Kind::Fluid)
-        .map(|i| p.density[i])
+        .map(|i| p.density[i]);
+    if !sim.is_distributed() {
+        return own;
+    }
+    let all = sim.gather_over_processes(&[own.unwrap_or(f64::NAN)]);
+    all.into_iter().find(|d| !d.is_nan())
 }
 
 /// Each group's arrival time (heavier groups at the bottom, lighter ones at the free

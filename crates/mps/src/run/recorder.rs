@@ -1,15 +1,19 @@
 //! The recorder: one writer per output file of a run, and the series kept in memory for the
 //! validations at the end.
+//!
+//! In a distributed run every process records alike (each measurement a sum, maximum or
+//! gather over the processes' own particles), the first one writes the shared files, and
+//! each process writes its own piece of every snapshot and checkpoint.
 
-use crate::analysis::exact::semi_axes;
+use crate::analysis::exact::{second_moments, semi_axes_from};
 use crate::analysis::groups::{group_states, pressure_noise};
 use crate::analysis::metrics::{front_position, Metrics};
 use crate::analysis::rim_mode::RimMode;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::input::case::ValidationSpec;
-use crate::io::checkpoint::write_checkpoint;
+use crate::io::checkpoint::{agree, write_checkpoint};
 use crate::io::series::{read_records, Cell, Records, Series};
-use crate::io::vtu::{pvd_bytes, vtu_bytes};
+use crate::io::vtu::{pvd_bytes, pvtu_bytes, pvtu_pieces, vtu_bytes};
 use crate::io::write_atomic;
 use crate::particles::Vector;
 use crate::simulation::{Simulation, StepReport};
@@ -39,9 +43,12 @@ pub fn is_run_file(name: &str) -> bool {
         "case.toml",
         "report.html",
     ];
+    let particles = name.ends_with(".vtu") || name.ends_with(".pvtu");
     FILES.contains(&name)
         || name == "figures"
-        || (name.starts_with("particles_") && name.ends_with(".vtu"))
+        || (name.starts_with("particles_") && particles)
+        || (name.starts_with("breakdown_last_good_state") && particles)
+        || (name.starts_with("checkpoint_") && name.ends_with(".bin"))
         || (name.starts_with('.') && name.contains(".tmp"))
 }
 
@@ -101,6 +108,8 @@ struct StepRow {
 /// The writers of one run folder.
 pub struct Recorder<const D: usize> {
     out: PathBuf,
+    /// This process writes the run's shared files (the only process, or the first).
+    first: bool,
     write_vtu: bool,
     /// (time, file) of every snapshot written (the `.pvd` index).
     snapshots: Vec<(f64, String)>,
@@ -260,15 +269,34 @@ fn rim_of<const D: usize>(sim: &Simulation<D>) -> Result<Option<RimMode<D>>> {
     )))
 }
 
-/// A series `file` in `out` with a time column and `columns`, if there are any.
-fn series_if(out: &Path, file: &str, columns: Option<Vec<String>>) -> Result<Option<Series>> {
+/// A series `file` in `out` with a time column and `columns`, if there are any (written
+/// when `write`).
+fn series_if(
+    write: bool,
+    out: &Path,
+    file: &str,
+    columns: Option<Vec<String>>,
+) -> Result<Option<Series>> {
     match columns {
         Some(cols) => {
             let header: Vec<String> = std::iter::once("time".to_string()).chain(cols).collect();
-            Ok(Some(Series::create(&out.join(file), Some(&header))?))
+            Ok(Some(Series::create_if(
+                write,
+                &out.join(file),
+                Some(&header),
+            )?))
         }
         None => Ok(None),
     }
+}
+
+/// True when run-folder file `name` belongs to snapshot entry `kept` (the file itself, or a
+/// piece of it when it is a `.pvtu` index).
+fn belongs_to(name: &str, kept: &str) -> bool {
+    name == kept
+        || kept
+            .strip_suffix(".pvtu")
+            .is_some_and(|stem| name.starts_with(&format!("{stem}_p")) && name.ends_with(".vtu"))
 }
 
 /// The numbers of a row of text fields (NaN where not a number).
@@ -276,11 +304,43 @@ fn numbers(r: &[String]) -> Vec<f64> {
     r.iter().map(|x| x.parse().unwrap_or(f64::NAN)).collect()
 }
 
+/// The earlier run's snapshots up to its checkpoint in `out`: the ones it wrote after the
+/// checkpoint go when `out` is its folder, the kept ones are copied when it is another.
+fn carry_snapshots(earlier: &Earlier, out: &Path) -> Result<()> {
+    let same = out.canonicalize().ok() == earlier.from.canonicalize().ok();
+    let io = |p: &Path, e| crate::error::Error::io(p, e);
+    if same {
+        for e in std::fs::read_dir(out).map_err(|e| io(out, e))?.flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            let kept = earlier.snapshots.iter().any(|s| belongs_to(&name, &s.1));
+            let snapshot = name.ends_with(".vtu") || name.ends_with(".pvtu");
+            if snapshot && is_run_file(&name) && !kept {
+                std::fs::remove_file(e.path()).map_err(|x| io(&e.path(), x))?;
+            }
+        }
+        return Ok(());
+    }
+    for (_, file) in &earlier.snapshots {
+        let src = earlier.from.join(file);
+        let index = std::fs::read(&src).map_err(|e| io(&src, e))?;
+        let pieces = pvtu_pieces(&index).unwrap_or_default();
+        for f in pieces.iter().chain(std::iter::once(file)) {
+            if f.contains(['/', '\\']) {
+                continue;
+            }
+            let (src, dst) = (earlier.from.join(f), out.join(f));
+            std::fs::copy(&src, &dst).map_err(|e| io(&src, e))?;
+        }
+    }
+    Ok(())
+}
+
 impl<const D: usize> Recorder<D> {
     /// Opens the writers of a run of `sim` into folder `out`; `front_wall` is the wall x (m)
     /// the dam-break front is measured from, when the case measures it.
     pub fn create(sim: &Simulation<D>, out: &Path, front_wall: Option<f64>) -> Result<Self> {
         let case = &sim.case;
+        let first = sim.is_first_process();
         let probe_points: Vec<(String, Vector<D>)> = case
             .probes
             .iter()
@@ -292,6 +352,7 @@ impl<const D: usize> Recorder<D> {
             })
             .collect();
         let probes = series_if(
+            first,
             out,
             "probes.csv",
             (!probe_points.is_empty()).then(|| probe_points.iter().map(|p| p.0.clone()).collect()),
@@ -315,28 +376,36 @@ impl<const D: usize> Recorder<D> {
             cols.extend(totals.map(String::from));
             cols
         });
-        let groups = series_if(out, "groups.csv", groups)?;
-        let tracks = series_if(out, "group_tracks.csv", group_columns(&["x", "y"]))?;
+        let groups = series_if(first, out, "groups.csv", groups)?;
+        let tracks = series_if(first, out, "group_tracks.csv", group_columns(&["x", "y"]))?;
         let drop = matches!(case.validation, Some(ValidationSpec::EllipticDrop { .. }));
         let axes = series_if(
+            first,
             out,
             "drop_axes.csv",
             drop.then(|| vec!["a".into(), "b".into()]),
         )?;
         let rim = rim_of(sim)?;
         let rim_csv = series_if(
+            first,
             out,
             "rim_mode.csv",
             rim.as_ref().map(|_| vec!["amplitude".into()]),
         )?;
-        let front = series_if(out, "front.csv", front_wall.map(|_| vec!["front".into()]))?;
+        let front = series_if(
+            first,
+            out,
+            "front.csv",
+            front_wall.map(|_| vec!["front".into()]),
+        )?;
         Ok(Recorder {
             out: out.to_path_buf(),
+            first,
             write_vtu: case.output.vtu,
             snapshots: Vec::new(),
             outputs: 0,
-            metrics: Series::create(&out.join("metrics.csv"), None)?,
-            steps: Series::create(&out.join("steps.csv"), None)?,
+            metrics: Series::create_if(first, &out.join("metrics.csv"), None)?,
+            steps: Series::create_if(first, &out.join("steps.csv"), None)?,
             probes,
             groups,
             front,
@@ -372,32 +441,28 @@ impl<const D: usize> Recorder<D> {
         front_wall: Option<f64>,
         from: &Path,
     ) -> Result<Self> {
-        let earlier = Earlier::read(from, sim.step_count, sim.time)?;
-        let same = out.canonicalize().ok() == from.canonicalize().ok();
-        if same {
-            // Snapshots the interrupted run wrote after its checkpoint go.
-            for e in std::fs::read_dir(out)
-                .map_err(|e| crate::error::Error::io(out, e))?
-                .flatten()
-            {
-                let name = e.file_name().to_string_lossy().to_string();
-                let kept = earlier.snapshots.iter().any(|s| s.1 == name);
-                if name.ends_with(".vtu") && is_run_file(&name) && !kept {
-                    std::fs::remove_file(e.path())
-                        .map_err(|x| crate::error::Error::io(&e.path(), x))?;
-                }
-            }
+        let earlier = Earlier::read(from, sim.step_count, sim.time);
+        // Every process has read the earlier files before the first rewrites them.
+        let read = earlier.as_ref().map(|_| ()).map_err(|e| Error::Format {
+            path: from.to_path_buf(),
+            message: e.to_string(),
+        });
+        let status = agree(sim, read);
+        let earlier = earlier?;
+        status?;
+        let carried = if sim.is_first_process() {
+            carry_snapshots(&earlier, out)
         } else {
-            for (_, file) in &earlier.snapshots {
-                let (src, dst) = (earlier.from.join(file), out.join(file));
-                std::fs::copy(&src, &dst).map_err(|e| crate::error::Error::io(&src, e))?;
-            }
-        }
+            Ok(())
+        };
+        agree(sim, carried)?;
         let mut rec = Recorder::create(sim, out, front_wall)?;
         rec.carry(&earlier)?;
         if !earlier.snapshots.is_empty() {
             rec.snapshots = earlier.snapshots;
-            write_atomic(&out.join("particles.pvd"), &pvd_bytes(&rec.snapshots))?;
+            if rec.first {
+                write_atomic(&out.join("particles.pvd"), &pvd_bytes(&rec.snapshots))?;
+            }
         }
         rec.flush()?;
         Ok(rec)
@@ -452,16 +517,41 @@ impl<const D: usize> Recorder<D> {
     }
 
     /// Writes a VTU snapshot of the current state as `name` and adds it to the `.pvd` index;
-    /// returns its path when one was written.
+    /// returns its path when one was written. On several processes each writes its own
+    /// particles as `STEM_pRANK.vtu` and the first the index `STEM.pvtu` naming them.
     pub fn snapshot(&mut self, sim: &Simulation<D>, name: &str) -> Result<Option<PathBuf>> {
         if !self.write_vtu {
             return Ok(None);
         }
-        let path = self.out.join(name);
-        write_atomic(&path, &vtu_bytes(&sim.particles, sim.time, sim.l0()))?;
-        self.snapshots.push((sim.time, name.to_string()));
-        write_atomic(&self.out.join("particles.pvd"), &pvd_bytes(&self.snapshots))?;
-        Ok(Some(path))
+        let entry = if sim.is_distributed() {
+            let stem = name.strip_suffix(".vtu").unwrap_or(name);
+            let (rank, size) = sim.process();
+            let piece = |r: usize| format!("{stem}_p{r}.vtu");
+            let own = sim.particles.first(sim.owned());
+            let bytes = vtu_bytes(&own, sim.time, sim.l0());
+            agree(sim, write_atomic(&self.out.join(piece(rank)), &bytes))?;
+            let index = format!("{stem}.pvtu");
+            let pieces: Vec<String> = (0..size).map(piece).collect();
+            let written = match self.first {
+                true => write_atomic(&self.out.join(&index), &pvtu_bytes::<D>(&pieces)),
+                false => Ok(()),
+            };
+            agree(sim, written)?;
+            index
+        } else {
+            write_atomic(
+                &self.out.join(name),
+                &vtu_bytes(&sim.particles, sim.time, sim.l0()),
+            )?;
+            name.to_string()
+        };
+        self.snapshots.push((sim.time, entry.clone()));
+        let indexed = match self.first {
+            true => write_atomic(&self.out.join("particles.pvd"), &pvd_bytes(&self.snapshots)),
+            false => Ok(()),
+        };
+        agree(sim, indexed)?;
+        Ok(Some(self.out.join(entry)))
     }
 
     /// An output: checkpoint, snapshot, metrics and group rows; every series flushed.
@@ -478,14 +568,16 @@ impl<const D: usize> Recorder<D> {
             self.first_metrics = Some(m.clone());
         }
         if let Some(c) = self.axes_center {
-            let (a, b) = semi_axes(&sim.particles, c);
+            let mut moments = second_moments(&sim.particles, sim.owned(), c);
+            sim.sum_over_processes(&mut moments);
+            let (a, b) = semi_axes_from(moments);
             self.axes_series.push((sim.time, a, b));
             if let Some(series) = &mut self.axes {
                 series.push(&[sim.time, a, b])?;
             }
         }
         if let Some(rim) = &self.rim {
-            let a = rim.amplitude(&sim.particles);
+            let a = rim.amplitude_in(sim);
             self.rim_series.push((sim.time, a));
             if let Some(series) = &mut self.rim_csv {
                 series.push(&[sim.time, a])?;
@@ -574,6 +666,12 @@ impl<const D: usize> Recorder<D> {
             collisions: r.collisions,
             removed: r.removed,
         })
+    }
+
+    /// True when this process writes the run's shared files (the only process, or the first
+    /// of a distributed run).
+    pub fn writes_shared_files(&self) -> bool {
+        self.first
     }
 
     /// The run folder.

@@ -38,6 +38,13 @@ pub enum BreakdownReason {
     },
     /// Another process of a distributed run broke down in this step.
     Elsewhere,
+    /// What a process of a distributed run found (its reason, in words).
+    OnProcess {
+        /// The process's rank.
+        rank: usize,
+        /// Its reason, as [`BreakdownReason`]'s text.
+        why: String,
+    },
     /// A distributed run could not go on (a particle exchange failed, or what it does not do
     /// yet).
     Distributed(String),
@@ -76,7 +83,17 @@ impl From<BreakdownReason> for Failure {
 
 impl fmt::Display for Breakdown {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let why = match &self.reason {
+        write!(
+            f,
+            "breakdown at t = {:.6} s (step {}): {}",
+            self.time, self.step, self.reason
+        )
+    }
+}
+
+impl fmt::Display for BreakdownReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let why = match self {
             BreakdownReason::NotFinite => "NaN or infinity in the particle state".to_string(),
             BreakdownReason::SolverDiverged {
                 iterations,
@@ -98,12 +115,9 @@ impl fmt::Display for Breakdown {
             }
             BreakdownReason::Elsewhere => "another process of the run broke down".to_string(),
             BreakdownReason::Distributed(why) => format!("distributed run: {why}"),
+            BreakdownReason::OnProcess { rank, why } => format!("{why} (on process {rank})"),
         };
-        write!(
-            f,
-            "breakdown at t = {:.6} s (step {}): {why}",
-            self.time, self.step
-        )
+        f.write_str(&why)
     }
 }
 

@@ -36,6 +36,18 @@ pub trait Domain<const D: usize>: Send {
     fn sum(&mut self, x: u64) -> u64;
     /// True when any process's `x` is.
     fn any(&mut self, x: bool) -> bool;
+    /// Every process's `v` summed, element by element, into `v` (the same length on all).
+    fn sum_reals(&mut self, v: &mut [f64]);
+    /// Every process's `v`, one after the other in rank order.
+    fn all_gather(&mut self, v: &[f64]) -> Vec<f64>;
+    /// This process's rank (0 for the first) and the number of processes.
+    fn process(&self) -> (usize, usize);
+    /// The pieces' layout (cells and cuts) as numbers, kept in a checkpoint so that a
+    /// restart on as many processes cuts the same pieces.
+    fn layout(&self) -> Vec<u64>;
+    /// Takes a checkpoint's layout before the first redistribution; false (and ignored) when
+    /// it was made for another number of processes or dimension.
+    fn adopt(&mut self, layout: &[u64]) -> bool;
     /// Solves the rows of the own particles of `sys` together with the other processes',
     /// `x` (one value per row of `sys`) the first guess of the own rows and their solution
     /// after; the halo's rows are left as they are. Relative residual `tol`.
@@ -60,12 +72,67 @@ impl<const D: usize> Simulation<D> {
         if self.case.domain.outflow == crate::input::case::Outflow::Remove {
             return Err("domain.outflow = \"remove\" does not run on several processes yet".into());
         }
+        if !self.layout.is_empty() {
+            domain.adopt(&self.layout);
+        }
         domain.redistribute(&mut self.particles)?;
         self.owned = Some(domain.owned());
         self.domain = std::sync::Mutex::new(Some(domain));
         self.solver.reset();
-        self.refresh_diagnostic_fields();
+        // Every field was computed on the whole (at the start, or kept by the checkpoint)
+        // and travelled with the particles: only the neighbour lists are new.
+        self.rebuild_neighbors();
         Ok(())
+    }
+
+    /// This process's rank and the number of processes (`(0, 1)` on one process).
+    pub fn process(&self) -> (usize, usize) {
+        self.with_domain(|d| d.process()).unwrap_or((0, 1))
+    }
+
+    /// True on the process that writes a run's shared files (the only one, or rank 0).
+    pub fn is_first_process(&self) -> bool {
+        self.process().0 == 0
+    }
+
+    /// `v` summed element by element over the processes (collective; nothing on one).
+    pub fn sum_over_processes(&self, v: &mut [f64]) {
+        self.with_domain(|d| d.sum_reals(v));
+    }
+
+    /// The largest `x` over the processes (collective).
+    pub fn max_over_processes(&self, x: f64) -> f64 {
+        self.with_domain(|d| d.max(x)).unwrap_or(x)
+    }
+
+    /// Every process's `v` in rank order (collective; `v` itself on one process).
+    pub fn gather_over_processes(&self, v: &[f64]) -> Vec<f64> {
+        self.with_domain(|d| d.all_gather(v))
+            .unwrap_or_else(|| v.to_vec())
+    }
+
+    /// Particles of `kind` over every process's own ones.
+    pub fn count_over_processes(&self, kind: crate::particles::Kind) -> usize {
+        let p = &self.particles;
+        let own = (0..self.owned()).filter(|&i| p.kind[i] == kind).count();
+        let mut n = [own as f64];
+        self.sum_over_processes(&mut n);
+        n[0] as usize
+    }
+
+    /// Waits until every process has come here (collective; nothing on one process).
+    pub fn barrier(&self) {
+        self.sum_over_processes(&mut [0.0]);
+    }
+
+    /// The pieces' layout to keep in a checkpoint (empty on one process).
+    pub fn layout(&self) -> Vec<u64> {
+        self.with_domain(|d| d.layout()).unwrap_or_default()
+    }
+
+    fn with_domain<R>(&self, f: impl FnOnce(&mut (dyn Domain<D> + 'static)) -> R) -> Option<R> {
+        let mut guard = self.domain.lock().unwrap_or_else(|e| e.into_inner());
+        guard.as_deref_mut().map(f)
     }
 
     /// How many times a distributed run's pieces were cut afresh (0 on one process).
@@ -100,6 +167,9 @@ impl<const D: usize> Simulation<D> {
         self.particles = p;
         if let Some(owned) = r? {
             self.owned = Some(owned);
+            // The particle order changed: the lists the diagnostics after the step and the
+            // next step read are built here, at the same positions.
+            self.rebuild_neighbors();
         }
         Ok(())
     }

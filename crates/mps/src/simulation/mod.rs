@@ -106,6 +106,9 @@ pub struct Simulation<const D: usize> {
     /// The fluid fills a closed tank: no air, so no particle is ever free surface
     /// (docs/decisions.md, "Full closed containers").
     full: bool,
+    /// A distributed run's layout of pieces from the checkpoint it restarts from (empty
+    /// otherwise), handed to its domain when attached.
+    pub layout: Vec<u64>,
 }
 
 /// True when the fluid of `p` fills a tank of `case` closed on every side: the fluid's
@@ -175,6 +178,7 @@ impl<const D: usize> Simulation<D> {
             domain: std::sync::Mutex::new(None),
             owned: None,
             full: false,
+            layout: Vec::new(),
         };
         sim.full = fills_a_closed_tank(&sim.case, &sim.particles);
         sim.reorder();
@@ -426,12 +430,12 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Shepard-weighted pressure (Pa) at point `x` from fluid and wall particles within
-    /// re_grad; `None` when no particle is in range.
+    /// re_grad (every process's own ones); `None` when no particle is in range.
     pub fn sample_pressure(&self, x: &Vector<D>) -> Option<f64> {
         let p = &self.particles;
         let re = self.kernels.grad.re;
         let (mut sw, mut swp) = (0.0, 0.0);
-        for i in 0..p.len() {
+        for i in 0..self.owned() {
             if p.kind[i] == Kind::Dummy {
                 continue;
             }
@@ -440,6 +444,11 @@ impl<const D: usize> Simulation<D> {
                 sw += w;
                 swp += w * p.pressure[i];
             }
+        }
+        if self.is_distributed() {
+            let mut s = [sw, swp];
+            self.sum_over_processes(&mut s);
+            [sw, swp] = s;
         }
         (sw > 0.0).then(|| swp / sw)
     }

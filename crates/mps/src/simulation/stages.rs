@@ -69,7 +69,11 @@ impl<const D: usize> Simulation<D> {
     /// Stage 1: neighbour lists at `r^n` (with a skin), reordering every few steps.
     pub(super) fn update_neighbors(&mut self) {
         // A distributed run's order is its domain's (own particles first, then the halo).
-        if !self.is_distributed() && self.step_count.is_multiple_of(REORDER_EVERY) {
+        if self.is_distributed() {
+            // Built at these positions after the last redistribution (domain.rs).
+            return;
+        }
+        if self.step_count.is_multiple_of(REORDER_EVERY) {
             self.reorder();
         }
         // The old list goes first, so the two never coexist (peak memory).
