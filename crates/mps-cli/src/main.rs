@@ -389,7 +389,21 @@ fn build<const D: usize>(
     label: &str,
     mut out: PathBuf,
 ) -> Result<Built<D>, Failure> {
-    let mut sim = mps::io::checkpoint::build_simulation::<D>(case, label)?;
+    // A restart takes every particle from its checkpoint: no settled start to make first.
+    let mut sim = if a.restart.is_some() {
+        Simulation::<D>::new(case, label)?
+    } else {
+        if let Some(r) = case.initial.as_ref().and_then(|i| i.relax.as_ref()) {
+            if !a.quiet {
+                say_err!(
+                    "{label}: relaxing the tank at rest for up to {} s first ({})",
+                    r.time,
+                    mps::simulation::relax::RELAX_SCHEME
+                );
+            }
+        }
+        mps::io::checkpoint::build_simulation::<D>(case, label)?
+    };
     let mut resumed = None;
     if let Some(ck) = &a.restart {
         let dir = restart(&mut sim, ck, a.quiet)?;

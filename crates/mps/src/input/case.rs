@@ -67,18 +67,38 @@ pub struct Case {
 }
 
 /// A settled start (`[initial]`): the run begins at t = 0 from the positions, velocities
-/// and pressures of another run's checkpoint, matched particle by particle (by id) to this
-/// case's particles, whose phases, groups and densities come from this case's regions. The
-/// checkpoint must come from the same geometry (domain, spacing, walls, fluid shapes): for
-/// example the same tank run at rest with every region water, then re-assigned here.
+/// and pressures of a settled state, matched particle by particle (by id) to this case's
+/// particles, whose phases, groups and densities come from this case's regions. The state
+/// is another run's checkpoint of the same geometry (`state`: domain, spacing, walls, fluid
+/// shapes; for example the same tank run at rest with every region water), or a relaxation
+/// this run makes first (`relax`: `simulation::relax`).
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialSpec {
     /// Checkpoint file, relative to the case file's folder (or absolute).
-    pub state: String,
+    #[serde(default)]
+    pub state: Option<String>,
+    /// A relaxation phase run first instead of a checkpoint.
+    #[serde(default)]
+    pub relax: Option<RelaxSpec>,
     /// The checkpoint's path as resolved when the case loaded.
     #[serde(skip)]
     pub path: std::path::PathBuf,
+}
+
+/// A relaxation phase (`[initial.relax]`): the case's tank at rest under gravity, every fluid
+/// region of the first region's phase and without its initial velocity, stepped under the
+/// MPS-HS-GC-DS preset for `time`, or until the kinetic energy has fallen below
+/// `kinetic_fraction` of its largest value; the run then starts from that state.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RelaxSpec {
+    /// Longest relaxation (s).
+    pub time: f64,
+    /// Ends the relaxation once the fluid's kinetic energy is below this fraction of its
+    /// largest value so far (dimensionless, between 0 and 1); none: the whole `time`.
+    #[serde(default)]
+    pub kinetic_fraction: Option<f64>,
 }
 
 fn default_dimension() -> usize {
@@ -705,11 +725,14 @@ impl Case {
     fn load_references(&mut self, base: &Path, label: &str) -> Result<(), CaseError> {
         self.load_meshes(base, label)?;
         if let Some(init) = &mut self.initial {
-            init.path = base.join(&init.state);
-            if !init.path.is_file() {
-                let value = format!("{:?}", init.state);
-                let msg = format!("no checkpoint file at {}", init.path.display());
-                return Err(CaseError::new(label, "initial.state", &value, msg));
+            check_initial(init, label)?;
+            if let Some(state) = &init.state {
+                init.path = base.join(state);
+                if !init.path.is_file() {
+                    let value = format!("{state:?}");
+                    let msg = format!("no checkpoint file at {}", init.path.display());
+                    return Err(CaseError::new(label, "initial.state", &value, msg));
+                }
             }
         }
         let reference = match &mut self.validation {
@@ -834,6 +857,42 @@ impl Case {
     pub fn phase_index(&self, name: &str) -> Option<usize> {
         self.phases.iter().position(|p| p.name == name)
     }
+}
+
+/// A settled start names one source, a relaxation a positive time and a fraction in (0, 1).
+fn check_initial(init: &InitialSpec, label: &str) -> Result<(), CaseError> {
+    let relax = match (&init.state, &init.relax) {
+        (Some(_), None) => return Ok(()),
+        (None, Some(r)) => r,
+        (s, _) => {
+            let value = if s.is_some() {
+                "state and relax"
+            } else {
+                "neither"
+            };
+            let msg = "a settled start takes `state` (a checkpoint) or `relax` (a relaxation first), one of them";
+            return Err(CaseError::new(label, "initial", value, msg));
+        }
+    };
+    if !(relax.time > 0.0) || !relax.time.is_finite() {
+        let msg = "the longest relaxation must be a positive number of seconds";
+        return Err(CaseError::new(
+            label,
+            "initial.relax.time",
+            relax.time.to_string(),
+            msg,
+        ));
+    }
+    if let Some(f) = relax.kinetic_fraction.filter(|f| !(*f > 0.0 && *f < 1.0)) {
+        let msg = "a fraction of the largest kinetic energy, between 0 and 1";
+        return Err(CaseError::new(
+            label,
+            "initial.relax.kinetic_fraction",
+            f.to_string(),
+            msg,
+        ));
+    }
+    Ok(())
 }
 
 /// Finds the line of the first back-quoted name in a serde message within the TOML text.

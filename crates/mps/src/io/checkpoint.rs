@@ -237,11 +237,22 @@ fn decode<const D: usize>(bytes: &[u8], path: &Path) -> Result<State<D>> {
 
 /// Builds the simulation of `case`; with a settled start (`[initial] state`), its particles
 /// then take positions, velocities and pressures from that checkpoint (matched by id; see
-/// [`crate::input::case::InitialSpec`]).
+/// [`crate::input::case::InitialSpec`]), or from the relaxation it runs first
+/// (`[initial.relax]`).
 pub fn build_simulation<const D: usize>(case: Case, label: &str) -> Result<Simulation<D>> {
     let initial = case.initial.clone();
+    let settled = match initial.as_ref().and_then(|i| i.relax.as_ref()) {
+        Some(spec) => Some(crate::simulation::relax::relax::<D>(&case, spec, label)?),
+        None => None,
+    };
     let mut sim = Simulation::<D>::new(case, label)?;
-    if let Some(init) = initial {
+    if let Some(p) = settled {
+        // The relaxation ran this geometry: its particles match by construction.
+        sim.start_from(&p).map_err(|m| Error::Format {
+            path: label.into(),
+            message: format!("initial.relax: cannot start from it: {m}"),
+        })?;
+    } else if let Some(init) = initial {
         let bytes = std::fs::read(&init.path).map_err(|e| Error::io(&init.path, e))?;
         let state = decode::<D>(&bytes, &init.path)?;
         sim.start_from(&state.particles)

@@ -8,6 +8,7 @@
 pub mod breakdown;
 pub mod domain;
 pub mod pressure_solver;
+pub mod relax;
 mod stages;
 pub mod time_step;
 pub mod timers;
