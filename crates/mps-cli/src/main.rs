@@ -515,7 +515,8 @@ fn distributed_case<const D: usize>(
 ) -> CmdResult {
     let first = procs.rank() == 0;
     a.quiet |= !first;
-    let vtu = case.output.vtu;
+    let (end, vtu) = (case.time.end, case.output.vtu);
+    let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
     let (sim, out, resumed) = build::<D>(&a, case, &label, out)?;
     procs.check_size(&sim, &label)?;
     let opened = match first {
@@ -530,8 +531,16 @@ fn distributed_case<const D: usize>(
     if !a.quiet {
         say_err!("on {} MPI processes", procs.size());
     }
-    let mut silent = mps::run::Silent;
-    let summary = procs.run(sim, &out, resumed.as_deref(), &mut silent)?;
+    if let Some(b) = &beat {
+        b.set(format!("{label}: first step"));
+    }
+    // The first process shows the progress, as a serial run does.
+    let mut rep = Reporter::new(beat, end);
+    rep.render_every = a.render_every;
+    let summary = procs.run(sim, &out, resumed.as_deref(), &mut rep)?;
+    if let Some(b) = &rep.bar {
+        b.finish_and_clear();
+    }
     match first {
         true => finish(&a, &summary, &out, vtu),
         false => Ok(ExitCode::SUCCESS),
