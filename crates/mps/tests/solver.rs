@@ -63,6 +63,7 @@ fn uniform_compression_gives_positive_pressure() {
             position: None,
             value: 0.0,
             open_elsewhere: false,
+            at: None,
         };
         let sys = assemble(
             &f,
@@ -114,6 +115,7 @@ fn ppe_matrix_is_symmetric_mid_run() {
         position: None,
         value: 0.0,
         open_elsewhere: false,
+        at: None,
     };
     let sys = assemble(&f, &p.pressure, &k, &s.scheme, s.gravity, 1e-4, &reference);
     let maxv = sys.matrix.val.iter().fold(0.0f64, |a, v| a.max(v.abs()));

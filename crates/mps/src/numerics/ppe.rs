@@ -40,6 +40,10 @@ pub struct PressureSystem {
     /// In a closed domain (no Dirichlet row): the reference particle, held out of the
     /// unknowns, and its pressure (Pa), which is added to every solved pressure.
     pub level: Option<(u32, f64)>,
+    /// The reference particle's own row's right-hand side (1/s^2) when the caller chose it
+    /// ([`PressureReference::at`]) and holds it, else 0: with the caller's sums it makes
+    /// the system consistent (a distributed run's rows are on several processes).
+    pub level_source: f64,
     /// Dirichlet value of every particle (Pa): 0 but for free-surface fluid particles with
     /// `surface_pressure = "mean-surface"`; empty when all are 0.
     pub dirichlet_value: Vec<f64>,
@@ -56,6 +60,10 @@ pub struct PressureReference<const D: usize> {
     /// Another process of a distributed run holds a Dirichlet row: the domain is not closed
     /// even where this process's rows have none.
     pub open_elsewhere: bool,
+    /// The reference particle as the caller chose it over every process (its index here,
+    /// `NONE` where another process holds it); the caller then removes the sources' mean
+    /// (with [`PressureSystem::level_source`]). `None`: chosen here, mean removed here.
+    pub at: Option<u32>,
 }
 
 impl<const D: usize> PressureReference<D> {
@@ -243,8 +251,13 @@ pub fn assemble_into<const D: usize>(
         .collect();
     let closed =
         !reference.open_elsewhere && !(0..n).any(|i| dirichlet[i] && v.kind[i] != Kind::Dummy);
-    let level_particle = if closed { reference.particle(v) } else { None };
-    if let Some(r) = level_particle {
+    let level_particle: Option<u32> = match (closed, reference.at) {
+        (false, _) => None,
+        (true, Some(r)) => Some(r),
+        (true, None) => reference.particle(v).map(|r| r as u32),
+    };
+    let held = level_particle.filter(|&r| r != NONE).map(|r| r as usize);
+    if let Some(r) = held {
         dirichlet[r] = true;
     }
     let mut row_of = std::mem::take(&mut sys.row_of);
@@ -276,16 +289,19 @@ pub fn assemble_into<const D: usize>(
     };
     assemble_rows(&ctx, &particle_of, sys);
     let rhs = &mut sys.rhs;
-    if let Some(r) = level_particle {
+    let own = held.map_or(0.0, |r| ctx.assemble(r, NONE, &mut Vec::new()));
+    sys.level_source = 0.0;
+    if level_particle.is_some() && reference.at.is_some() {
+        sys.level_source = own;
+    } else if level_particle.is_some() {
         // The singular system is solvable only if its sources sum to zero (the constant is
         // its null vector): remove their mean, the reference particle's own row included.
-        let own = ctx.assemble(r, NONE, &mut Vec::new());
         let mean = (rhs.iter().sum::<f64>() + own) / (rhs.len() + 1) as f64;
         rhs.iter_mut().for_each(|b| *b -= mean);
     }
     sys.row_of = row_of;
     sys.particle_of = particle_of;
-    sys.level = level_particle.map(|r| (r as u32, reference.value));
+    sys.level = level_particle.map(|r| (r, reference.value));
     sys.dirichlet_value = dirichlet;
 }
 
@@ -349,6 +365,7 @@ mod tests {
             position: Some(Vector([0.07, 0.14])),
             value: 1234.0,
             open_elsewhere: false,
+            at: None,
         };
         let zero = vec![0.0; v.pos.len()];
         let g = Vector([0.0, 0.0]);
@@ -405,6 +422,7 @@ mod tests {
             position: None,
             value: 0.0,
             open_elsewhere: false,
+            at: None,
         };
         let incompressible = solve(&assemble(&v, &zero, &k, &s, g, dt, &level));
         let centre = 7 * 15 + 7;

@@ -60,7 +60,6 @@ pub trait Domain<const D: usize>: Send {
     ) -> Result<SolveStats, NotConverged>;
 }
 
-use super::breakdown::{BreakdownReason, Failure};
 use super::stages::{DensitySurface, Predicted};
 use super::Simulation;
 
@@ -243,16 +242,6 @@ impl<const D: usize> Simulation<D> {
         let owned = self.owned() as u32;
         let own = sys.particle_of.iter().filter(|&&i| i < owned).count();
         self.sum(own as u64) as usize
-    }
-
-    /// On several processes, a closed domain (no Dirichlet row on any process) is refused:
-    /// its level would be fixed on every process at once (not done yet).
-    pub(super) fn refuse_closed_across(&mut self, sys: &PressureSystem) -> Result<(), Failure> {
-        if self.is_distributed() && self.any(sys.level.is_some()) {
-            let why = "a closed domain (no free surface) does not run on several processes yet";
-            return Err(BreakdownReason::Distributed(why.into()).into());
-        }
-        Ok(())
     }
 
     /// On several processes: the PPE solved across them (`None` on one process).

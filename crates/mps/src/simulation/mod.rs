@@ -253,7 +253,6 @@ impl<const D: usize> Simulation<D> {
             s.assemble(&pred, &surf, &density, dt)
         });
         report.unknowns = self.own_unknowns(&sys);
-        self.refuse_closed_across(&sys)?;
         let mut pressure = self.solve_pressure(sys, &mut report)?;
         self.refresh_scalars(&mut pressure);
         // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization.

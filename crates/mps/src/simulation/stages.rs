@@ -198,10 +198,13 @@ impl<const D: usize> Simulation<D> {
     ) -> PressureSystem {
         let mut sys = self.last_system.take().unwrap_or_default();
         let open_elsewhere = self.open_elsewhere(pred, surf);
-        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
-        let previous = &self.particles.pressure;
         let mut reference = self.pressure_reference();
         reference.open_elsewhere = open_elsewhere;
+        if self.is_distributed() && !open_elsewhere {
+            reference.at = Some(self.reference_particle(&pred.pos, &reference));
+        }
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
+        let previous = &self.particles.pressure;
         assemble_into(
             &v,
             previous,
@@ -211,7 +214,57 @@ impl<const D: usize> Simulation<D> {
             &reference,
             &mut sys,
         );
+        if reference.at.is_some() {
+            self.consistent_across(&mut sys);
+        }
         sys
+    }
+
+    /// A distributed closed domain's reference particle: over every process's own fluid
+    /// particles the one nearest to the reference position (or the highest), ties to the
+    /// smallest id; its index here (own or halo), `NONE` where another process holds it.
+    fn reference_particle(&mut self, pos: &[Vector<D>], r: &PressureReference<D>) -> u32 {
+        let p = &self.particles;
+        let key = |i: usize| match r.position {
+            Some(x) => -(pos[i] - x).norm2(),
+            None => pos[i][D - 1],
+        };
+        let fluid = |i: &usize| p.kind[*i] == Kind::Fluid;
+        let own = self.owned();
+        let best = (0..own)
+            .filter(fluid)
+            .map(key)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let best = self.max(best);
+        let p = &self.particles;
+        let id = (0..own)
+            .filter(|i| p.kind[*i] == Kind::Fluid && key(*i) == best)
+            .map(|i| p.id[i] as f64)
+            .fold(f64::INFINITY, f64::min);
+        let id = self.min(id);
+        let p = &self.particles;
+        (0..p.len())
+            .find(|&i| p.id[i] as f64 == id)
+            .map_or(NONE, |i| i as u32)
+    }
+
+    /// A distributed closed domain's sources made consistent over the processes: their
+    /// mean over every own row and the reference particle's own row removed (as
+    /// `assemble_into` does on one process).
+    fn consistent_across(&mut self, sys: &mut PressureSystem) {
+        if sys.level.is_none() {
+            return;
+        }
+        let owned = self.owned() as u32;
+        let own_rows = sys.particle_of.partition_point(|&i| i < owned);
+        let held = sys.level.is_some_and(|(r, _)| r != NONE && r < owned);
+        let mut sums = [
+            sys.rhs[..own_rows].iter().sum::<f64>() + sys.level_source * held as u8 as f64,
+            (own_rows + held as usize) as f64,
+        ];
+        self.sum_over_processes(&mut sums);
+        let mean = sums[0] / sums[1];
+        sys.rhs.iter_mut().for_each(|b| *b -= mean);
     }
 
     /// Stage 4b: solves the PPE (warm start from the last pressures) and returns every
@@ -304,11 +357,13 @@ impl<const D: usize> Simulation<D> {
                 position: r.position.as_deref().and_then(Vector::from_slice),
                 value: r.value,
                 open_elsewhere: false,
+                at: None,
             },
             None => PressureReference {
                 position: None,
                 value: 0.0,
                 open_elsewhere: false,
+                at: None,
             },
         }
     }
