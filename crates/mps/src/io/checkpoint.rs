@@ -76,10 +76,13 @@ pub fn checkpoint_bytes<const D: usize>(sim: &Simulation<D>) -> Vec<u8> {
 /// its piece beside it, then the first the index at `path`, then each removes its older
 /// pieces (collective: an error on any process is every process's).
 pub fn write_checkpoint<const D: usize>(sim: &Simulation<D>, path: &Path) -> Result<()> {
-    if !sim.is_distributed() {
-        return write_atomic(path, &checkpoint_bytes(sim));
-    }
     let dir = path.parent().unwrap_or(Path::new("."));
+    if !sim.is_distributed() {
+        write_atomic(path, &checkpoint_bytes(sim))?;
+        // A distributed checkpoint's pieces restarted from here are no longer named.
+        remove_pieces(dir, "_p", None);
+        return Ok(());
+    }
     let (rank, size) = sim.process();
     let name = |r: usize| format!("checkpoint_{}_p{r}.bin", sim.step_count);
     let mine = name(rank);
@@ -115,16 +118,23 @@ pub fn write_checkpoint<const D: usize>(sim: &Simulation<D>, path: &Path) -> Res
     };
     agree(sim, index)?;
     // The index names the new pieces now: this process's older ones go.
-    let suffix = format!("_p{rank}.bin");
-    if let Ok(entries) = std::fs::read_dir(dir) {
-        for e in entries.flatten() {
-            let f = e.file_name().to_string_lossy().to_string();
-            if f.starts_with("checkpoint_") && f.ends_with(&suffix) && f != mine {
-                let _ = std::fs::remove_file(e.path());
-            }
+    remove_pieces(dir, &format!("_p{rank}."), Some(&mine));
+    Ok(())
+}
+
+/// Removes the checkpoint pieces `checkpoint_STEP_pRANK.bin` in `dir` whose name holds
+/// `mark`, but `keep` (best effort: a piece left behind is named by no index).
+fn remove_pieces(dir: &Path, mark: &str, keep: Option<&str>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let f = e.file_name().to_string_lossy().to_string();
+        let piece = f.starts_with("checkpoint_") && f.ends_with(".bin") && f.contains(mark);
+        if piece && Some(f.as_str()) != keep {
+            let _ = std::fs::remove_file(e.path());
         }
     }
-    Ok(())
 }
 
 /// `r` on this process, and an error on every process when any process's failed (so that
