@@ -89,7 +89,10 @@ impl Processes {
             }
         })?;
         sim.attach(Box::new(domain))
-            .map_err(|e| CaseError::new("case", "domain.outflow", "remove", e))?;
+            .map_err(|e| crate::error::Error::Format {
+                path: out.to_path_buf(),
+                message: format!("the particles could not be shared out: {e}"),
+            })?;
         run_from(&mut sim, out, resumed, observer)
     }
 }

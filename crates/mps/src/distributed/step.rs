@@ -275,8 +275,10 @@ impl<const D: usize> Domain<D> for MpiDomain<D> {
         self.owned
     }
 
-    fn redistribute(&mut self, p: &mut Particles<D>) -> Result<(), String> {
+    fn redistribute(&mut self, p: &mut Particles<D>, owned: usize) -> Result<(), String> {
         let first = !self.started;
+        // Own particles removed by outflow since the last call are gone from the front.
+        self.owned = owned.min(p.len());
         let rows = self.own_rows(p);
         let mut rows = if first {
             rows

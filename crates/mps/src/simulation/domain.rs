@@ -18,8 +18,10 @@ pub trait Domain<const D: usize>: Send {
     fn owned(&self) -> usize;
     /// After a step (and before the first): hands particles that left this process's piece
     /// to their owners, rebalances the pieces when they drift apart, and appends the halo at
-    /// the current positions with every field. The particle order changes.
-    fn redistribute(&mut self, p: &mut Particles<D>) -> Result<(), String>;
+    /// the current positions with every field. `owned`: the own particles now (fewer than
+    /// after the last call when some left the domain; all of them before the first). The
+    /// particle order changes.
+    fn redistribute(&mut self, p: &mut Particles<D>, owned: usize) -> Result<(), String>;
     /// The halo's copies of a vector field from their owners.
     fn refresh_vectors(&mut self, v: &mut [Vector<D>]);
     /// The halo's copies of a scalar field from their owners.
@@ -65,16 +67,13 @@ use super::Simulation;
 
 impl<const D: usize> Simulation<D> {
     /// Makes this simulation one process's part of a distributed run: every process built
-    /// the same case; `domain` keeps this process's piece and its halo. Refused for what the
-    /// distributed step does not do yet (outflow removal).
+    /// the same case; `domain` keeps this process's piece and its halo.
     pub fn attach(&mut self, mut domain: Box<dyn Domain<D>>) -> Result<(), String> {
-        if self.case.domain.outflow == crate::input::case::Outflow::Remove {
-            return Err("domain.outflow = \"remove\" does not run on several processes yet".into());
-        }
         if !self.layout.is_empty() {
             domain.adopt(&self.layout);
         }
-        domain.redistribute(&mut self.particles)?;
+        let all = self.particles.len();
+        domain.redistribute(&mut self.particles, all)?;
         self.owned = Some(domain.owned());
         self.domain = std::sync::Mutex::new(Some(domain));
         self.solver.reset();
@@ -159,8 +158,9 @@ impl<const D: usize> Simulation<D> {
     /// After a step of a distributed run: migration, rebalancing and the new halo.
     pub(super) fn redistribute(&mut self) -> Result<(), String> {
         let mut p = std::mem::take(&mut self.particles);
+        let owned = self.owned();
         let r = match self.domain_mut() {
-            Some(d) => d.redistribute(&mut p).map(|_| Some(d.owned())),
+            Some(d) => d.redistribute(&mut p, owned).map(|_| Some(d.owned())),
             None => Ok(None),
         };
         self.particles = p;

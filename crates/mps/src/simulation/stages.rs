@@ -495,11 +495,19 @@ impl<const D: usize> Simulation<D> {
                 p.kind[i] != Kind::Fluid || (0..D).all(|k| x[k] >= lim.lo[k] && x[k] <= lim.hi[k])
             })
             .collect();
-        if keep.iter().all(|&k| k) {
-            return 0;
-        }
-        let removed = self.particles.retain(&keep) as u64;
+        // On several processes: each removes its own and its halo's leavers alike (the same
+        // positions), and counts its own.
+        let own = self.owned();
+        let own_removed = keep[..own].iter().filter(|&&k| !k).count();
+        let removed = self.sum(own_removed as u64);
         self.outflow_removed += removed;
+        if keep.iter().all(|&k| k) {
+            return removed;
+        }
+        self.particles.retain(&keep);
+        if let Some(owned) = &mut self.owned {
+            *owned -= own_removed;
+        }
         self.solver.reset();
         self.rebuild_neighbors();
         removed
