@@ -225,62 +225,37 @@ fn a_distributed_two_phase_run_records_its_groups_and_probes() {
 
 /// A water column spilling off a floor that ends at the domain's edge
 /// (`domain.outflow = "remove"`) on 2 processes: the same particles leave as in the serial
-/// run (44 by 0.16 s) and every output's energies, momenta and speeds agree within 1e-5 (the
+/// run (89 by 0.16 s) and every output's energies, momenta and speeds agree within 1e-5 (the
 /// fastest spray particle is the loosest: 3e-6).
 #[test]
 fn a_distributed_run_removes_outflow_as_the_serial_run_does() {
     let dir = temp("spill");
-    std::fs::create_dir_all(&dir).unwrap();
-    let case = dir.join("spill.toml");
-    std::fs::write(
-        &case,
-        r#"name = "spill"
-[domain]
-min = [0.0, 0.0]
-max = [0.3, 0.4]
-outflow = "remove"
-[particles]
-spacing = 0.00365
-[time]
-end = 0.16
-[output]
-interval = 0.02
-vtu = false
-[scheme]
-name = "MPS-HS-GC-DS"
-[solver]
-tolerance = 1e-12
-[[phases]]
-name = "water"
-density = 1000.0
-viscosity = 1.0e-6
-[[fluid]]
-phase = "water"
-shape = { type = "rectangle", min = [0.0, 0.0], max = [0.146, 0.292] }
-[[walls]]
-shape = { type = "rectangle", min = [-0.05, -0.05], max = [0.3, 0.0] }
-[[walls]]
-shape = { type = "rectangle", min = [-0.05, -0.05], max = [0.0, 0.4] }
-"#,
-    )
-    .unwrap();
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("../mps/tests/data/spill.toml");
+    let set = [
+        "--set",
+        "particles.spacing=0.00365",
+        "--set",
+        "time.end=0.16",
+        "--set",
+        "output.interval=0.02",
+        "--set",
+        "scheme.name=MPS-HS-GC-DS",
+        "--set",
+        "solver.tolerance=1e-12",
+    ];
     let (serial, np2) = (dir.join("serial"), dir.join("np2"));
-    succeed(
-        mps()
-            .arg("run")
-            .arg(&case)
-            .arg("-q")
-            .arg("--out")
-            .arg(&serial),
-    );
-    succeed(
-        mpirun(2)
-            .arg("run")
-            .arg(&case)
-            .arg("-q")
-            .arg("--out")
-            .arg(&np2),
-    );
+    let run = |c: &mut Command, out: &Path| {
+        succeed(
+            c.arg("run")
+                .arg(&case)
+                .args(set)
+                .arg("-q")
+                .arg("--out")
+                .arg(out),
+        );
+    };
+    run(&mut mps(), &serial);
+    run(&mut mpirun(2), &np2);
     let ((header, want), (_, got)) = (metrics(&serial), metrics(&np2));
     assert_eq!(want.len(), got.len());
     let k = header.iter().position(|h| h == "outflow_removed").unwrap();

@@ -8,39 +8,15 @@ use mps::run::{run, Silent};
 use mps::{BreakdownReason, Case, Simulation};
 use std::path::Path;
 
-/// A 0.146 m x 0.292 m column at L/20 on a floor from x = 0 to the domain's right edge
-/// (0.3 m), a wall on the left, nothing on the right.
+/// The spill case (`tests/data/spill.toml`: a column at L/20 on a floor that ends at the
+/// domain's right edge) with `domain.outflow` and the end time (s) given.
 fn spill(outflow: &str, end: f64) -> Simulation<2> {
-    let text = format!(
-        r#"
-name = "spill"
-[domain]
-min = [0.0, 0.0]
-max = [0.3, 0.4]
-outflow = "{outflow}"
-[particles]
-spacing = 0.0073
-[physics]
-gravity = [0.0, -9.81]
-[time]
-end = {end}
-[output]
-interval = 0.05
-vtu = false
-[[phases]]
-name = "water"
-density = 1000.0
-viscosity = 1.0e-6
-[[fluid]]
-phase = "water"
-shape = {{ type = "rectangle", min = [0.0, 0.0], max = [0.146, 0.292] }}
-[[walls]]
-shape = {{ type = "rectangle", min = [-0.05, -0.05], max = [0.3, 0.0] }}
-[[walls]]
-shape = {{ type = "rectangle", min = [-0.05, -0.05], max = [0.0, 0.4] }}
-"#
-    );
-    let case = Case::from_str_named(&text, "spill.toml", &[]).expect("valid case");
+    let text = include_str!("data/spill.toml");
+    let set = [
+        ("domain.outflow".to_string(), format!("{outflow:?}")),
+        ("time.end".to_string(), end.to_string()),
+    ];
+    let case = Case::from_str_named(text, "spill.toml", &set).expect("valid case");
     Simulation::<2>::new(case, "spill").expect("builds")
 }
 
