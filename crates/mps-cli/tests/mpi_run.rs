@@ -54,17 +54,7 @@ const CASE: [&str; 9] = [
 
 /// `metrics.csv` of `dir`: the header and every row as numbers.
 fn metrics(dir: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(dir.join("metrics.csv")).expect("metrics.csv");
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines
-        .map(|l| {
-            l.split(',')
-                .map(|v| v.parse().unwrap_or(f64::NAN))
-                .collect()
-        })
-        .collect();
-    (header, rows)
+    table(dir, "metrics.csv")
 }
 
 /// The physical columns of two metrics rows agree to `tol` relative (time, energies,
