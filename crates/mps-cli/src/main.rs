@@ -496,11 +496,20 @@ fn distributed_run(a: RunArgs) -> CmdResult {
                 _ => distributed_case::<2>(&procs, a, case, label, out),
             }
         };
-        match run() {
-            // Every process reads the same input and meets the same error: the first says it.
-            Err(_) if !first => Ok(ExitCode::from(1)),
-            r => r,
-        }
+        let r = run();
+        // Every process reads the same input and meets the same error: the first says it,
+        // and the others wait until it has (mpirun ends the whole job as soon as one
+        // process exits with an error, which could cut the first short of its message).
+        let r = match r {
+            Err(e) if first => {
+                say_err!("error: {e}");
+                Ok(e.exit_code())
+            }
+            Err(e) => Ok(e.exit_code()),
+            ok => ok,
+        };
+        procs.all(true);
+        r
     })
 }
 
