@@ -378,6 +378,28 @@ pub fn elliptic_drop(
     ))
 }
 
+/// Steady-flow check: the relative L2 error `sqrt(err2 / exact2)` of the fluid velocities
+/// against an exact steady field, from the sums of `|u_i - u(x_i)|^2` and `|u(x_i)|^2`
+/// (m^2/s^2) over the fluid particles, within `tolerance`. Value: the fluid's RMS speed
+/// (m/s) from `speed2` (the sum of `|u_i|^2`) over `count` particles; reference: the exact
+/// field's there.
+pub fn steady_flow(
+    [err2, exact2, speed2, count]: [f64; 4],
+    tolerance: f64,
+) -> Option<ValidationResult> {
+    if exact2 <= 0.0 || count < 1.0 {
+        return None;
+    }
+    Some(ValidationResult::new(
+        "steady_flow_velocity",
+        (speed2 / count).sqrt(),
+        (exact2 / count).sqrt(),
+        (err2 / exact2).sqrt(),
+        tolerance,
+        "relative L2 error of the fluid velocities against the exact steady field (the initial one) at their positions at the end; value and reference: RMS speeds (m/s)".into(),
+    ))
+}
+
 /// Rim-mode check (`analysis::rim_mode`): the largest relative error of the recorded mode
 /// amplitude `(t, |eta_n|)` against linear theory, `(U / gamma) sinh(gamma t)`, over the
 /// outputs with `0 < t <= until`, within `tolerance`. Value and reference: the amplitude at

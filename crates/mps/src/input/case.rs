@@ -636,6 +636,14 @@ pub enum ValidationSpec {
         /// Initial strain rate `A0` (1/s).
         strain_rate: f64,
     },
+    /// An exact steady flow (a Taylor-Green cell in a slip box, solid rotation): the first
+    /// fluid region's initial velocity field, evaluated at the fluid particles' positions at
+    /// the end of the run, against their velocities. Checks the relative L2 error,
+    /// `sqrt(sum |u_i - u(x_i)|^2 / sum |u(x_i)|^2)`, within `tolerance`.
+    SteadyFlow {
+        /// Largest accepted relative L2 error (dimensionless).
+        tolerance: f64,
+    },
     /// A probe against a reference curve the case names (a wall-pressure gauge of an
     /// experiment, another code's result): the probe's moving average against the curve at
     /// every reference time the run covers; RMS and largest difference within tolerances
@@ -1094,6 +1102,7 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         assert_eq!(with("output.interval", "0.2"), base);
         assert_ne!(with("physics.gravity", "[0.0, -1.0]"), base);
         assert_ne!(with("scheme.name", "MPS-HS-GC-DS"), base);
+        assert_ne!(with("scheme.shifting.enabled", "true"), base);
         assert_ne!(with("domain.max", "[1.0, 2.0]"), base);
     }
 
@@ -1130,5 +1139,21 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         assert_eq!(e.field, "validation.probe");
         let e = Case::from_str_named(&disc("[0.2]", "c"), "t.toml", &[]).unwrap_err();
         assert_eq!(e.field, "validation.center");
+    }
+
+    /// A steady-flow check needs the exact field, the first region's velocity.
+    #[test]
+    fn a_steady_flow_check_without_an_initial_velocity_is_refused() {
+        let steady = format!("{MINIMAL}[validation]\nkind = \"steady_flow\"\ntolerance = 0.1\n");
+        let e = Case::from_str_named(&steady, "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "validation.kind");
+        let set = [(
+            "fluid.0.velocity".to_string(),
+            "{ type = \"uniform\", value = [0.1, 0.0] }".to_string(),
+        )];
+        assert!(Case::from_str_named(&steady, "t.toml", &set).is_ok());
+        let set = [("validation.tolerance".to_string(), "-1".to_string())];
+        let e = Case::from_str_named(&steady, "t.toml", &set).unwrap_err();
+        assert!(e.field == "validation.tolerance" || e.field == "validation.kind");
     }
 }

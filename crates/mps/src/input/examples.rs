@@ -53,6 +53,11 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/elliptic_drop.toml"),
     ),
     (
+        "taylor_green",
+        "Taylor-Green cell in a slip box: an exact steady flow under strong strain (particle shifting)",
+        include_str!("../../cases/taylor_green.toml"),
+    ),
+    (
         "hydrostatic_3d",
         "Still water in a 3D tank: bottom pressure against rho g (H - l0/2)",
         include_str!("../../cases/hydrostatic_3d.toml"),

@@ -6,6 +6,7 @@ use crate::numerics::collision::Collision;
 use crate::numerics::density::DensityAverage;
 use crate::numerics::gradient::{GradientDensity, GradientModel};
 use crate::numerics::scheme::{Preset, Scheme, PRESETS};
+use crate::numerics::shifting::ParticleShifting;
 use crate::numerics::source::{DriftControl, HsNormalization, SourceModel};
 use crate::numerics::stabilization::{DsWeighting, DynamicStabilization};
 use crate::numerics::surface::SurfaceDetector;
@@ -26,6 +27,18 @@ pub struct DsSpec {
     pub weighting: Option<DsWeighting>,
     /// Whether DS acts on fluid-wall pairs (default true).
     pub walls: Option<bool>,
+}
+
+/// Particle shifting options (beyond the paper: `numerics::shifting`).
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShiftingSpec {
+    /// Switch particle shifting on (default off in every preset).
+    pub enabled: Option<bool>,
+    /// Coefficient `C` of Xu et al. (2009) (default 0.3).
+    pub coefficient: Option<f64>,
+    /// Largest shift of one step as a fraction of l0 (default 0.2).
+    pub max_shift: Option<f64>,
 }
 
 /// Collision model options (equations.md section 5, step 2).
@@ -101,6 +114,9 @@ pub struct SchemeSpec {
     /// Dynamic Stabilization.
     #[serde(default)]
     pub ds: DsSpec,
+    /// Particle shifting (beyond the paper).
+    #[serde(default)]
+    pub shifting: ShiftingSpec,
 }
 
 impl Default for SchemeSpec {
@@ -232,6 +248,33 @@ impl SchemeSpec {
         }))
     }
 
+    /// Particle shifting: off unless switched on, with checked parameters.
+    fn shifting(&self, label: &str) -> Result<Option<ParticleShifting>, CaseError> {
+        let s = &self.shifting;
+        if !s.enabled.unwrap_or(false) {
+            return Ok(None);
+        }
+        let d = ParticleShifting::default();
+        let c = s.coefficient.unwrap_or(d.coefficient);
+        let m = s.max_shift.unwrap_or(d.max_shift);
+        Ok(Some(ParticleShifting {
+            coefficient: check(
+                label,
+                "shifting.coefficient",
+                c,
+                c > 0.0 && c <= 10.0,
+                "(0, 10]",
+            )?,
+            max_shift: check(
+                label,
+                "shifting.max_shift",
+                m,
+                m > 0.0 && m <= 0.5,
+                "(0, 0.5]",
+            )?,
+        }))
+    }
+
     /// Resolves the preset and overrides; `courant` is the Courant number when the time step
     /// follows it (for the DS threshold of Eq. 9), `label` names the case in errors.
     pub fn resolve(&self, courant: Option<f64>, label: &str) -> Result<Scheme, CaseError> {
@@ -296,6 +339,7 @@ impl SchemeSpec {
         s.surface_pressure = self.surface_pressure.unwrap_or(s.surface_pressure);
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;
+        s.shifting = self.shifting(label)?;
         let g = &mut s.gradient;
         g.model = self.gradient.unwrap_or(g.model);
         g.correction = self.gradient_correction.unwrap_or(g.correction);
@@ -386,6 +430,18 @@ mod tests {
 
     #[test]
     fn the_distribution_detector_is_selectable() {
+        let mut s = spec("MPS-HS-GC-DS");
+        assert_eq!(s.resolve(None, "t").unwrap().shifting, None);
+        s.shifting.enabled = Some(true);
+        let on = s.resolve(None, "t").unwrap().shifting.unwrap();
+        assert_eq!(on, ParticleShifting::default());
+        s.shifting.coefficient = Some(0.0);
+        let e = s.resolve(None, "t").unwrap_err();
+        assert_eq!(e.field, "scheme.shifting.coefficient");
+        s.shifting.coefficient = None;
+        s.shifting.max_shift = Some(0.7);
+        let e = s.resolve(None, "t").unwrap_err();
+        assert_eq!(e.field, "scheme.shifting.max_shift");
         let mut s = spec("MPS-HS-GC-DS");
         s.surface = Some(toml::from_str("detector = \"distribution\"").unwrap());
         assert_eq!(s.resolve(None, "t").unwrap().surface.name(), "distribution");

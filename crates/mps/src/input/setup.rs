@@ -199,7 +199,7 @@ fn evaluate<const D: usize>(text: &str, case: &Case, x: Vector<D>) -> f64 {
 }
 
 /// Initial velocity (m/s) of region `f` of `case` at `x` (m).
-fn initial_velocity<const D: usize>(f: &FluidSpec, case: &Case, x: Vector<D>) -> Vector<D> {
+pub fn initial_velocity<const D: usize>(f: &FluidSpec, case: &Case, x: Vector<D>) -> Vector<D> {
     match &f.velocity {
         None => Vector::zero(),
         Some(VelocitySpec::Uniform { value }) => to_vec(value),

@@ -218,6 +218,16 @@ impl Case {
                 )
             }
             Some(v @ ValidationSpec::SurfaceMode { .. }) => check_surface_mode(c, v),
+            Some(ValidationSpec::SteadyFlow { tolerance }) => {
+                if self.fluid.first().is_some_and(|f| f.velocity.is_none()) {
+                    return c.fail(
+                        "validation.kind",
+                        "\"steady_flow\"",
+                        "compares with fluid.0.velocity, which the case does not set",
+                    );
+                }
+                c.positive("validation.tolerance", *tolerance)
+            }
             Some(ValidationSpec::EllipticDrop {
                 center,
                 radius,

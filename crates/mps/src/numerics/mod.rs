@@ -1,7 +1,7 @@
 //! Numerics: the MPS kernel, the one pair loop, the operators, and every model a scheme is
 //! made of (gradient models, PPE source and assembly, free-surface detectors and
 //! the surface's Dirichlet value, walls, density
-//! averages, collisions, Dynamic Stabilization), with the paper's presets as data.
+//! averages, collisions, Dynamic Stabilization, particle shifting), with the paper's presets as data.
 //!
 //! Each file implements one model and cites its equation. May use `particles` and `linalg`
 //! (the PPE is assembled into its sparse matrix); knows nothing of the time loop, case files
@@ -15,6 +15,7 @@ pub mod operators;
 pub mod pairs;
 pub mod ppe;
 pub mod scheme;
+pub mod shifting;
 pub mod source;
 pub mod stabilization;
 pub mod surface;

@@ -5,6 +5,7 @@
 use super::collision::Collision;
 use super::density::DensityAverage;
 use super::gradient::{GradientDensity, GradientModel, PressureGradient};
+use super::shifting::ParticleShifting;
 use super::source::{DriftControl, HsNormalization, PpeSource, SourceModel};
 use super::stabilization::{DsWeighting, DynamicStabilization};
 use super::surface::distribution::Distribution;
@@ -47,6 +48,8 @@ pub struct Scheme {
     pub collision: Option<Collision>,
     /// Dynamic Stabilization, if on.
     pub ds: Option<DynamicStabilization>,
+    /// Particle shifting, if on (beyond the paper; off in every preset).
+    pub shifting: Option<ParticleShifting>,
 }
 
 /// One of the paper's named schemes: the choices that distinguish it (equations.md s.8).
@@ -188,6 +191,7 @@ impl Preset {
                 weighting: DsWeighting::Kernel,
                 walls: true,
             }),
+            shifting: None,
         }
     }
 }

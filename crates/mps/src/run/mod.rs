@@ -14,12 +14,13 @@ use crate::analysis::metrics::Metrics;
 use crate::analysis::probes::{noise, smooth, SMOOTHING_WINDOW};
 use crate::analysis::validation::{
     against_curve, curve_results, dam_break, early_acceleration, elliptic_drop, hydrostatic,
-    rotating_disc, surface_mode, DiscSpec, ValidationResult,
+    rotating_disc, steady_flow, surface_mode, DiscSpec, ValidationResult,
 };
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
 use crate::input::case::{Case, ValidationSpec};
 use crate::input::reference::ReferenceFile;
+use crate::input::setup::initial_velocity;
 use crate::io::checkpoint::agree;
 use crate::io::series::Series;
 use crate::io::write_atomic;
@@ -458,6 +459,9 @@ fn validate<const D: usize>(
             let u = rec.rim.as_ref().map_or(0.0, |r| r.initial_velocity);
             surface_mode(&rec.rim_series, u, (*omega, *mode), *until, *tolerance)
         }
+        Some(ValidationSpec::SteadyFlow { tolerance }) => {
+            steady_flow(steady_flow_sums(sim), *tolerance)
+        }
         Some(ValidationSpec::ProbeReference {
             probe,
             reference,
@@ -489,6 +493,23 @@ fn validate<const D: usize>(
         None => None,
     };
     Ok(result.into_iter().collect())
+}
+
+/// The sums of a steady-flow check over every process's own fluid particles:
+/// `|u_i - u(x_i)|^2`, `|u(x_i)|^2`, `|u_i|^2` (m^2/s^2) and their count, `u` the first fluid
+/// region's initial velocity field.
+fn steady_flow_sums<const D: usize>(sim: &Simulation<D>) -> [f64; 4] {
+    let (p, f) = (&sim.particles, &sim.case.fluid[0]);
+    let mut sums = [0.0; 4];
+    for i in (0..sim.owned()).filter(|&i| p.kind[i] == Kind::Fluid) {
+        let exact = initial_velocity(f, &sim.case, p.position[i]);
+        sums[0] += (p.velocity[i] - exact).norm2();
+        sums[1] += exact.norm2();
+        sums[2] += p.velocity[i].norm2();
+        sums[3] += 1.0;
+    }
+    sim.sum_over_processes(&mut sums);
+    sums
 }
 
 /// A series against the case's reference curve: `reference_comparison.csv` (time, reference,

@@ -255,8 +255,8 @@ impl<const D: usize> Simulation<D> {
         report.unknowns = self.own_unknowns(&sys);
         let mut pressure = self.solve_pressure(sys, &mut report)?;
         self.refresh_scalars(&mut pressure);
-        // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization.
-        let (acc, ds_acc) = self.timed(Stage::Gradient, |s| {
+        // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization, shifting.
+        let (acc, ds_acc, shifts) = self.timed(Stage::Gradient, |s| {
             let mut carries = s.boundary_pressures(&pred, &surf, &mut pressure);
             s.refresh_scalars(&mut pressure);
             s.refresh_flags(&mut carries);
@@ -266,14 +266,14 @@ impl<const D: usize> Simulation<D> {
             report.ds_active = s.sum(ds_active);
             let (m, c) = s.pair_metrics(&pred, &surf);
             (report.min_pair_distance, report.close_pairs) = (s.min(m), s.sum(c));
-            (acc, ds_acc)
+            (acc, ds_acc, s.shift(&pred, &surf, dt))
         });
-        // 6. Correction u = u* + dt a, r = r* + dt^2 a, and the breakdown checks.
+        // 6. Correction u = u* + dt a, r = r* + dt^2 a (+ shift), and the breakdown checks.
         let min_pair = report.min_pair_distance;
         report.max_speed = self.timed(Stage::Correction, |s| {
             s.correct(
                 (pred, surf),
-                (&acc, ds_acc.as_deref()),
+                (&acc, ds_acc.as_deref(), shifts.as_deref()),
                 pressure,
                 min_pair,
                 dt,

@@ -9,6 +9,7 @@ use crate::numerics::density::smoothed_density;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::operators::{laplacian_vector, number_density};
 use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
+use crate::numerics::shifting::shift;
 use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
@@ -444,6 +445,33 @@ impl<const D: usize> Simulation<D> {
         (Some(a), active[..owned].iter().map(|&a| a as u64).sum())
     }
 
+    /// Stage 5d: particle shifting (beyond the paper, `numerics::shifting`) at `r*`: every
+    /// particle's shift (m), if the scheme has it, for a step whose largest travel is the
+    /// largest fluid speed `|u*|` times `dt`.
+    pub(super) fn shift(
+        &mut self,
+        pred: &Predicted<D>,
+        surf: &DensitySurface,
+        dt: f64,
+    ) -> Option<Vec<Vector<D>>> {
+        let s = self.scheme.shifting?;
+        let kind = &self.particles.kind;
+        let u_max = (0..self.owned())
+            .into_par_iter()
+            .filter(|&i| kind[i] == Kind::Fluid)
+            .map(|i| pred.vel[i].norm())
+            .reduce(|| 0.0, f64::max);
+        let travel = self.max(u_max) * dt;
+        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
+        let phase = &self.particles.phase;
+        Some(
+            (0..pred.pos.len())
+                .into_par_iter()
+                .map(|i| shift(i, &v, phase, &self.kernels, &s, travel))
+                .collect(),
+        )
+    }
+
     /// Smallest fluid-neighbour distance (m) and the number of pairs closer than 0.9 l0.
     pub(super) fn pair_metrics(&self, pred: &Predicted<D>, surf: &DensitySurface) -> (f64, u64) {
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
@@ -513,13 +541,13 @@ impl<const D: usize> Simulation<D> {
         removed
     }
 
-    /// Stage 6: `u = u* + dt a`, `r = r* + dt^2 a` with `a` the pressure and DS
-    /// accelerations; the new state is checked and stored (the step restores the old one on
+    /// Stage 6: `u = u* + dt a`, `r = r* + dt^2 a + delta r` with `a` the pressure and DS
+    /// accelerations and `delta r` the shift, if any; the new state is checked and stored (the step restores the old one on
     /// failure). Returns the largest fluid speed (m/s).
     pub(super) fn correct(
         &mut self,
         (pred, surf): (Predicted<D>, DensitySurface),
-        (acc, ds_acc): (&[Vector<D>], Option<&[Vector<D>]>),
+        (acc, ds_acc, shifts): (&[Vector<D>], Option<&[Vector<D>]>, Option<&[Vector<D>]>),
         pressure: Vec<f64>,
         min_pair: f64,
         dt: f64,
@@ -535,7 +563,11 @@ impl<const D: usize> Simulation<D> {
                     Some(ds) => acc[i] + ds[i],
                     None => acc[i],
                 };
-                (pred.vel[i] + a * dt, pred.pos[i] + a * (dt * dt))
+                let moved = pred.pos[i] + a * (dt * dt);
+                match shifts {
+                    Some(d) => (pred.vel[i] + a * dt, moved + d[i]),
+                    None => (pred.vel[i] + a * dt, moved),
+                }
             })
             .unzip();
         let own = self.owned();
