@@ -422,7 +422,7 @@ mod tests {
     /// A disc on concentric rings: ring `k` holds `round(2 pi (k + 1/2))` particles, all
     /// inside the circle, the area per particle `h^2` within 0.1 %, no pair closer than
     /// 0.86 h, the outer ring at `R - h/2` (a smooth edge); another shape, another dimension
-    /// or an overriding region is refused naming `fluid.N.arrangement`.
+    /// or a later overriding region over it is refused naming `fluid.N.arrangement`.
     #[test]
     fn a_disc_on_concentric_rings() {
         let disc = |extra: &str| {
@@ -492,6 +492,37 @@ mod tests {
             + "[[fluid]]\nphase = \"water\"\noverrides = true\nshape = { type = \"circle\", center = [0.5, 0.5], radius = 0.1 }\n";
         let e = Case::from_str_named(&over, "d", &[]).unwrap_err();
         assert_eq!(e.field, "fluid.0.arrangement", "{e}");
+    }
+
+    /// A circle on rings may replace part of an earlier region (a group of another phase in
+    /// a tank of water): the earlier region keeps no particle inside the circle, and the
+    /// circle holds exactly its rings.
+    #[test]
+    fn a_rings_circle_replaces_part_of_an_earlier_region() {
+        let text = crate::input::case::tests::MINIMAL.to_string()
+            + "[[phases]]\nname = \"heavy\"\ndensity = 2650.0\n[[fluid]]\nphase = \"heavy\"\n\
+               overrides = true\narrangement = \"rings\"\n\
+               shape = { type = \"circle\", center = [0.25, 0.25], radius = 0.15 }\n";
+        let case = Case::from_str_named(&text, "g", &[]).unwrap();
+        let p = build_particles::<2>(&case, "g").unwrap();
+        let c = Vector([0.25, 0.25]);
+        let heavy: Vec<usize> = (0..p.len()).filter(|&i| p.phase[i] == 1).collect();
+        assert_eq!(heavy.len(), 3 + 9 + 16, "three rings");
+        assert!(heavy.iter().all(|&i| (p.position[i] - c).norm() < 0.15));
+        let water: Vec<usize> = (0..p.len()).filter(|&i| p.phase[i] == 0).collect();
+        assert!(water
+            .iter()
+            .all(|&i| (p.position[i] - c).norm() >= 0.15 - 1e-12));
+        let inside = (0..100)
+            .map(|n| {
+                Vector([
+                    (n % 10) as f64 * 0.05 + 0.025,
+                    (n / 10) as f64 * 0.05 + 0.025,
+                ])
+            })
+            .filter(|x| (*x - c).norm() < 0.15)
+            .count();
+        assert_eq!(water.len(), 100 - inside);
     }
 
     /// A 3D cylinder of fluid along x, rotating about its own axis: the particles fill the

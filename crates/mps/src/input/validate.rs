@@ -371,9 +371,16 @@ impl Case {
         c.shape(&at("shape"), &f.shape, false)?;
         if f.arrangement == Arrangement::Rings {
             let circle = matches!(f.shape, ShapeSpec::Circle { .. });
-            let alone = !f.overrides && !self.fluid[k + 1..].iter().any(|g| g.overrides);
+            // A later overriding region must not reach the rings (their points are placed
+            // after the lattice sites, which overriding reassigns): boxes apart.
+            let (lo, hi) = shape_bounds(&f.shape);
+            let apart = |g: &FluidSpec| {
+                let (glo, ghi) = shape_bounds(&g.shape);
+                (0..lo.len().min(glo.len())).any(|a| ghi[a] <= lo[a] || glo[a] >= hi[a])
+            };
+            let alone = self.fluid[k + 1..].iter().all(|g| !g.overrides || apart(g));
             if c.d != 2 || !circle || !alone {
-                let msg = "rings need a circle in 2D that no other region overrides";
+                let msg = "rings need a circle in 2D that no later overriding region overlaps";
                 return c.fail(&at("arrangement"), "\"rings\"", msg);
             }
         }
