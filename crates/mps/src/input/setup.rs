@@ -189,18 +189,44 @@ fn fluid_sites<const D: usize>(
     Ok(fluid)
 }
 
-/// The value of an expression already checked by the case validation at `x` (m), `t = 0`.
-fn evaluate<const D: usize>(text: &str, case: &Case, x: Vector<D>) -> f64 {
+/// An expression of an initial field that does not evaluate to a number at a point: the
+/// field's name under the region (`velocity.u`, `pressure.p`), the expression, the fault.
+type FieldFault = (&'static str, String, String);
+
+/// The value of an expression of the case at `x` (m), `t = 0`, or what is wrong with it
+/// there (the case validation parses it; a value can still be of the wrong type at some
+/// points, e.g. `if(x > 0, true, 1)`).
+fn evaluate<const D: usize>(text: &str, case: &Case, x: Vector<D>) -> Result<f64, String> {
     let names = ["x", "y", "z"];
     let vars: Vec<(&str, f64)> = (0..D).map(|k| (names[k], x[k])).collect();
     Expression::parse(text, &["x", "y", "z", "t"], &case.constants)
         .and_then(|e| e.eval(&vars))
-        .expect("checked by the case validation")
+        .map_err(|e| e.to_string())
 }
 
 /// Initial velocity (m/s) of region `f` of `case` at `x` (m).
-pub fn initial_velocity<const D: usize>(f: &FluidSpec, case: &Case, x: Vector<D>) -> Vector<D> {
-    match &f.velocity {
+fn initial_velocity<const D: usize>(
+    f: &FluidSpec,
+    case: &Case,
+    x: Vector<D>,
+) -> Result<Vector<D>, FieldFault> {
+    velocity_field(f, x, |e| evaluate(e, case, x))
+}
+
+/// Region `f`'s initial velocity field (m/s) at any point `x` (m), NaN in a component whose
+/// expression does not evaluate to a number there.
+pub fn velocity_at<const D: usize>(f: &FluidSpec, case: &Case, x: Vector<D>) -> Vector<D> {
+    velocity_field(f, x, |e| Ok(evaluate(e, case, x).unwrap_or(f64::NAN)))
+        .unwrap_or(Vector([f64::NAN; D]))
+}
+
+/// Region `f`'s velocity field (m/s) at `x` (m), expressions evaluated by `eval`.
+fn velocity_field<const D: usize>(
+    f: &FluidSpec,
+    x: Vector<D>,
+    eval: impl Fn(&str) -> Result<f64, String>,
+) -> Result<Vector<D>, FieldFault> {
+    Ok(match &f.velocity {
         None => Vector::zero(),
         Some(VelocitySpec::Uniform { value }) => to_vec(value),
         Some(VelocitySpec::Rotation {
@@ -232,16 +258,19 @@ pub fn initial_velocity<const D: usize>(f: &FluidSpec, case: &Case, x: Vector<D>
         }
         Some(VelocitySpec::Expression { u, v, w }) => {
             let mut out = Vector::zero();
+            let names = ["velocity.u", "velocity.v", "velocity.w"];
             for (k, e) in [Some(u), Some(v), w.as_ref()]
                 .into_iter()
                 .enumerate()
                 .take(D)
             {
-                out[k] = e.map_or(0.0, |e| evaluate(e, case, x));
+                if let Some(e) = e {
+                    out[k] = eval(e).map_err(|why| (names[k], e.clone(), why))?;
+                }
             }
             out
         }
-    }
+    })
 }
 
 /// Initial pressure (Pa) of region `f` of `case`, density `rho` (kg/m^3), at `x` (m).
@@ -251,8 +280,8 @@ fn initial_pressure<const D: usize>(
     x: Vector<D>,
     rho: f64,
     g: f64,
-) -> f64 {
-    match &f.pressure {
+) -> Result<f64, FieldFault> {
+    Ok(match &f.pressure {
         None => 0.0,
         Some(PressureSpec::Uniform { value }) => *value,
         Some(PressureSpec::Hydrostatic {
@@ -270,8 +299,10 @@ fn initial_pressure<const D: usize>(
             let yp = x[1] - (c[1] - side / 2.0);
             square_patch_pressure(xp, yp, *side, rho, *omega, 60)
         }
-        Some(PressureSpec::Expression { p }) => evaluate(p, case, x),
-    }
+        Some(PressureSpec::Expression { p }) => {
+            evaluate(p, case, x).map_err(|why| ("pressure.p", p.clone(), why))?
+        }
+    })
 }
 
 /// Builds the particles of a case. The fluid comes first, then walls, then dummies.
@@ -318,15 +349,24 @@ pub fn build_particles<const D: usize>(
         let f = &case.fluid[r];
         let ph = case.phase_index(&f.phase).expect("validated phase");
         let rho = case.phases[ph].density;
+        let fault = |(field, text, why): FieldFault| {
+            let why = format!("{why} at {:?}", x.0);
+            CaseError::new(
+                label,
+                format!("fluid.{r}.{field}"),
+                format!("{text:?}"),
+                why,
+            )
+        };
         p.push(NewParticle {
             position: x,
-            velocity: initial_velocity(f, case, x),
+            velocity: initial_velocity(f, case, x).map_err(fault)?,
             kind: Kind::Fluid,
             phase: ph as u16,
             density: rho,
         });
         let i = p.len() - 1;
-        p.pressure[i] = initial_pressure(f, case, x, rho, g);
+        p.pressure[i] = initial_pressure(f, case, x, rho, g).map_err(fault)?;
         if let Some(name) = &f.group {
             p.group[i] = groups.iter().position(|n| n == name).expect("listed") as u16;
         }
@@ -492,6 +532,25 @@ mod tests {
             + "[[fluid]]\nphase = \"water\"\noverrides = true\nshape = { type = \"circle\", center = [0.5, 0.5], radius = 0.1 }\n";
         let e = Case::from_str_named(&over, "d", &[]).unwrap_err();
         assert_eq!(e.field, "fluid.0.arrangement", "{e}");
+    }
+
+    /// An expression that is no number at some particle (an `if` of mixed types) is an
+    /// error naming the region's field and the expression, not a panic.
+    #[test]
+    fn an_expression_that_is_no_number_at_a_particle_is_named() {
+        let e = "if(x > 0.25, true, 1.0)";
+        let velocity = format!("velocity = {{ type = \"expression\", u = \"{e}\", v = \"0\" }}\n");
+        let pressure = format!("pressure = {{ type = \"expression\", p = \"{e}\" }}\n");
+        for (extra, field) in [
+            (velocity, "fluid.0.velocity.u"),
+            (pressure, "fluid.0.pressure.p"),
+        ] {
+            let text = crate::input::case::tests::MINIMAL.to_string() + &extra;
+            let case = Case::from_str_named(&text, "e", &[]).unwrap();
+            let err = build_particles::<2>(&case, "e").unwrap_err();
+            assert_eq!(err.field, field, "{err}");
+            assert!(err.value.contains("if(x > 0.25"), "{err}");
+        }
     }
 
     /// A circle on rings may replace part of an earlier region (a group of another phase in

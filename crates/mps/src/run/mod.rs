@@ -20,7 +20,7 @@ use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
 use crate::input::case::{Case, ValidationSpec};
 use crate::input::reference::ReferenceFile;
-use crate::input::setup::initial_velocity;
+use crate::input::setup::velocity_at;
 use crate::io::checkpoint::agree;
 use crate::io::series::Series;
 use crate::io::write_atomic;
@@ -502,7 +502,7 @@ fn steady_flow_sums<const D: usize>(sim: &Simulation<D>) -> [f64; 4] {
     let (p, f) = (&sim.particles, &sim.case.fluid[0]);
     let mut sums = [0.0; 4];
     for i in (0..sim.owned()).filter(|&i| p.kind[i] == Kind::Fluid) {
-        let exact = initial_velocity(f, &sim.case, p.position[i]);
+        let exact = velocity_at(f, &sim.case, p.position[i]);
         sums[0] += (p.velocity[i] - exact).norm2();
         sums[1] += exact.norm2();
         sums[2] += p.velocity[i].norm2();
