@@ -542,8 +542,8 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Stage 6: `u = u* + dt a`, `r = r* + dt^2 a + delta r` with `a` the pressure and DS
-    /// accelerations and `delta r` the shift, if any; the new state is checked and stored (the step restores the old one on
-    /// failure). Returns the largest fluid speed (m/s).
+    /// accelerations and `delta r` the shift, if any; the new state is checked and stored
+    /// (the step restores the old one on failure). Returns the largest fluid speed (m/s).
     pub(super) fn correct(
         &mut self,
         (pred, surf): (Predicted<D>, DensitySurface),
