@@ -443,6 +443,33 @@ pub fn surface_mode(
 mod tests {
     use super::*;
 
+    /// The steady-flow check: the exact field passes with error 0, a field slowed by 10 %
+    /// reads 0.1 (and fails a 5 % tolerance), a field with no motion gives no result.
+    #[test]
+    fn steady_flow_check() {
+        let exact: Vec<[f64; 2]> = (0..50)
+            .map(|k| [(k as f64).sin(), (k as f64).cos()])
+            .collect();
+        let sums = |scale: f64| {
+            let mut s = [0.0; 4];
+            for u in &exact {
+                let v = [scale * u[0], scale * u[1]];
+                s[0] += (v[0] - u[0]).powi(2) + (v[1] - u[1]).powi(2);
+                s[1] += u[0] * u[0] + u[1] * u[1];
+                s[2] += v[0] * v[0] + v[1] * v[1];
+                s[3] += 1.0;
+            }
+            s
+        };
+        let same = steady_flow(sums(1.0), 0.05).unwrap();
+        assert!(same.passed && same.error == 0.0);
+        assert!((same.value - same.reference).abs() < 1e-15);
+        let slow = steady_flow(sums(0.9), 0.05).unwrap();
+        assert!((slow.error - 0.1).abs() < 1e-12 && !slow.passed, "{slow:?}");
+        assert!((slow.value / slow.reference - 0.9).abs() < 1e-12);
+        assert!(steady_flow([0.0; 4], 0.05).is_none());
+    }
+
     /// The rim-mode check passes the theory itself, fails a rim that drifts ballistically
     /// (no pressure force: amplitude `U t`), and fails an empty window.
     #[test]
