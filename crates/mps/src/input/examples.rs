@@ -69,12 +69,12 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
     ),
     (
         "settling_3d",
-        "Settling of heavier fluid spheres in water, 3D (seed paper 3.2.1 in a 0.05 m deep tank)",
+        "Settling of heavier fluid spheres in water, 3D (seed paper 3.2.1 in a 0.1 m deep tank, settled first)",
         include_str!("../../cases/settling_3d.toml"),
     ),
     (
         "surfacing_3d",
-        "Surfacing of lighter fluid spheres in water, 3D (seed paper 3.2.2 in a 0.05 m deep tank)",
+        "Surfacing of lighter fluid spheres in water, 3D (seed paper 3.2.2 in a 0.1 m deep tank, settled first)",
         include_str!("../../cases/surfacing_3d.toml"),
     ),
     (
