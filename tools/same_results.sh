@@ -41,6 +41,11 @@ two_layer 0.02
 settling 0.005
 surfacing 0.005 scheme.density_smoothing=true
 bench_dam_break 0.005
+taylor_green 0.02
+rotating_disc 0.05 scheme.surface.detector=scan_region
+elliptic_drop 0.001
+hydrostatic_3d 0.05
+dam_break_3d 0.01 particles.spacing=0.0146
 CASES
 if [ $status -eq 0 ]; then echo "ALL IDENTICAL"; else echo "DIFFERENCES FOUND"; fi
 exit $status

@@ -30,6 +30,7 @@ pub fn pairs<'a, const D: usize>(
     i: usize,
     re: f64,
 ) -> impl Iterator<Item = Pair<D>> + 'a {
+    let nl = nl.for_radius(re);
     let xi = pos[i];
     // Far neighbours (the list's skin, a smaller radius) are rejected before the square root;
     // the margin leaves the exact test `r < re` to decide at the rim.

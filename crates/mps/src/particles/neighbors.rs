@@ -16,6 +16,10 @@ pub struct NeighborList {
     pub indices: Vec<u32>,
     /// Cut-off radius used to build the list (m).
     pub cutoff: f64,
+    /// The same lists cut to a smaller radius at the positions of the stages now running
+    /// (each particle's neighbours within `near.cutoff`, in the same order), or none. The
+    /// step sets them at `r*` for its stages and clears them before the particles move.
+    pub near: Option<Box<NeighborList>>,
 }
 
 impl NeighborList {
@@ -27,6 +31,60 @@ impl NeighborList {
     /// Total number of (directed) neighbour pairs.
     pub fn pairs(&self) -> usize {
         self.indices.len()
+    }
+
+    /// The lists to scan for the pairs within `re` (m): the near lists when they reach that
+    /// far, these otherwise.
+    #[inline]
+    pub fn for_radius(&self, re: f64) -> &NeighborList {
+        match &self.near {
+            Some(near) if re <= near.cutoff => near,
+            _ => self,
+        }
+    }
+
+    /// These lists cut to `radius` (m) at positions `pos`: every neighbour `j` of `i` with
+    /// `|x_j - x_i|^2 <= radius^2 (1 + 1e-9)` (the margin of the pair loop's own test, so a
+    /// pair loop at any radius up to `radius` finds the same pairs in the same order).
+    pub fn cut_to<const D: usize>(&self, pos: &[Vector<D>], radius: f64) -> NeighborList {
+        let mut out = NeighborList::default();
+        self.cut_into(pos, radius, &mut out);
+        out
+    }
+
+    /// [`NeighborList::cut_to`] into `out`, reusing its memory.
+    pub fn cut_into<const D: usize>(&self, pos: &[Vector<D>], radius: f64, out: &mut NeighborList) {
+        let n = self.offsets.len().saturating_sub(1);
+        let far = radius * radius * (1.0 + 1e-9);
+        // The share of the full lists expected within `radius` (by volume), with a margin.
+        let share = 1.2 * (radius / self.cutoff).min(1.0).powi(D as i32);
+        // Particles per parallel work unit, as for the full lists.
+        const CHUNK: usize = 512;
+        let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
+                let mut counts = Vec::with_capacity(b - a);
+                let full = (self.offsets[b] - self.offsets[a]) as f64;
+                let mut list = Vec::with_capacity((share * full) as usize + 16);
+                for i in a..b {
+                    let xi = pos[i];
+                    let before = list.len();
+                    list.extend(
+                        self.of(i)
+                            .iter()
+                            .filter(|&&j| (pos[j as usize] - xi).norm2() <= far),
+                    );
+                    counts.push((list.len() - before) as u32);
+                }
+                (counts, list)
+            })
+            .collect();
+        let (counts, lists): (Vec<Vec<u32>>, Vec<Vec<u32>>) = chunks.into_iter().unzip();
+        crate::parallel::offsets_into(&counts, &mut out.offsets);
+        crate::parallel::concat_into(&lists, &mut out.indices);
+        out.cutoff = radius;
+        out.near = None;
     }
 }
 
@@ -221,6 +279,7 @@ pub fn build_neighbor_list_within<const D: usize>(
         offsets,
         indices,
         cutoff,
+        near: None,
     }
 }
 
@@ -254,6 +313,52 @@ mod tests {
         assert_eq!(nl.of(1), &[0]);
         let unbounded = build_neighbor_list(&pts, 0.07);
         assert_eq!(unbounded.of(0), &[1]);
+    }
+
+    /// Lists cut to a smaller radius hold every neighbour within it (up to the pair loop's
+    /// margin), in the full lists' order, and a pair loop at that radius or below reads them
+    /// and finds the same pairs in the same order as on the full lists; a loop at a larger
+    /// radius reads the full lists.
+    #[test]
+    fn near_lists_give_the_pair_loop_the_same_pairs_in_the_same_order() {
+        let mut pts = Vec::new();
+        let mut s = 987654321u64;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..400 {
+            pts.push(Vector([next(), next() * 0.5]));
+        }
+        let mut nl = build_neighbor_list(&pts, 0.1);
+        let near = nl.cut_to(&pts, 0.06);
+        for i in 0..pts.len() {
+            let want: Vec<u32> = nl
+                .of(i)
+                .iter()
+                .copied()
+                .filter(|&j| (pts[j as usize] - pts[i]).norm() < 0.06)
+                .collect();
+            assert_eq!(near.of(i), &want[..], "particle {i}");
+        }
+        let loop_at = |nl: &NeighborList, re: f64| -> Vec<(usize, usize, f64)> {
+            (0..pts.len())
+                .flat_map(|i| {
+                    crate::numerics::pairs::pairs(&pts, nl, i, re).map(move |q| (i, q.j, q.w))
+                })
+                .collect()
+        };
+        let (full_small, full_large) = (loop_at(&nl, 0.05), loop_at(&nl, 0.08));
+        nl.near = Some(Box::new(near));
+        assert!(std::ptr::eq(
+            nl.for_radius(0.05),
+            nl.near.as_deref().unwrap()
+        ));
+        assert!(std::ptr::eq(nl.for_radius(0.08), &nl));
+        assert_eq!(loop_at(&nl, 0.05), full_small);
+        assert_eq!(loop_at(&nl, 0.08), full_large);
     }
 
     #[test]

@@ -95,6 +95,8 @@ pub struct Simulation<const D: usize> {
     /// Fluid particles removed so far after leaving the domain (`domain.outflow`).
     pub outflow_removed: u64,
     neighbors: NeighborList,
+    /// The memory of the last step's near lists (`NeighborList::near`), for the next step's.
+    spare_near: Option<Box<NeighborList>>,
     /// The particles at the start of the step (restored on breakdown; its memory reused).
     backup: Particles<D>,
     skin: f64,
@@ -174,6 +176,7 @@ impl<const D: usize> Simulation<D> {
             neighbors: NeighborList::default(),
             backup: Particles::default(),
             skin: SKIN * l0,
+            spare_near: None,
             outflow_removed: 0,
             closed: false,
             domain: std::sync::Mutex::new(None),
@@ -213,6 +216,8 @@ impl<const D: usize> Simulation<D> {
             }
             Err(f) => {
                 std::mem::swap(&mut self.particles, &mut self.backup);
+                // A stage that failed after stage 3 leaves the near lists cut at r*.
+                self.drop_near_lists();
                 Err(Breakdown {
                     time: self.time,
                     step: self.step_count + 1,
@@ -366,6 +371,7 @@ impl<const D: usize> Simulation<D> {
         self.rebuild_neighbors();
         let pos = self.particles.position.clone();
         let mut surf = self.density_and_surface(&pos);
+        self.drop_near_lists();
         self.refresh_surface(&mut surf);
         self.particles.number_density = surf.number_density;
         self.particles.free_surface = surf.free_surface;

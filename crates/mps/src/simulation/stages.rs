@@ -138,9 +138,16 @@ impl<const D: usize> Simulation<D> {
         n
     }
 
-    /// Stage 3: number density at re_grad and free-surface flags at positions `pos`.
-    pub(super) fn density_and_surface(&self, pos: &[Vector<D>]) -> DensitySurface {
+    /// Stage 3: number density at re_grad and free-surface flags at positions `pos`. First the
+    /// neighbour lists are cut to re_grad at `pos` for the pair loops of stages 3 to 5 (the
+    /// same pairs in the same order, a third of the candidates in 2D); they are cleared when
+    /// the particles move (`correct`).
+    pub(super) fn density_and_surface(&mut self, pos: &[Vector<D>]) -> DensitySurface {
         let re = self.kernels.grad.re;
+        self.drop_near_lists();
+        let mut near = self.spare_near.take().unwrap_or_default();
+        self.neighbors.cut_into(pos, re, &mut near);
+        self.neighbors.near = Some(near);
         let nd: Vec<f64> = (0..pos.len())
             .into_par_iter()
             .map(|i| number_density(i, pos, &self.neighbors, re))
@@ -165,6 +172,14 @@ impl<const D: usize> Simulation<D> {
         DensitySurface {
             number_density: nd,
             free_surface,
+        }
+    }
+
+    /// Takes the near lists out of use (the particles moved, or the step failed), keeping
+    /// their memory for the next step's.
+    pub(super) fn drop_near_lists(&mut self) {
+        if let Some(near) = self.neighbors.near.take() {
+            self.spare_near = Some(near);
         }
     }
 
@@ -587,6 +602,8 @@ impl<const D: usize> Simulation<D> {
                 e => e,
             };
         }
+        // The near lists were cut at r*: the particles now leave it.
+        self.drop_near_lists();
         let p = &mut self.particles;
         p.velocity = vel;
         p.position = pos;
