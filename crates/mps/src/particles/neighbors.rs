@@ -58,34 +58,51 @@ impl NeighborList {
         let far = radius * radius * (1.0 + 1e-9);
         // The share of the full lists expected within `radius` (by volume), with a margin.
         let share = 1.2 * (radius / self.cutoff).min(1.0).powi(D as i32);
-        // Particles per parallel work unit, as for the full lists.
-        const CHUNK: usize = 512;
-        let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
-            .into_par_iter()
-            .map(|c| {
-                let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
-                let mut counts = Vec::with_capacity(b - a);
-                let full = (self.offsets[b] - self.offsets[a]) as f64;
-                let mut list = Vec::with_capacity((share * full) as usize + 16);
-                for i in a..b {
-                    let xi = pos[i];
-                    let before = list.len();
-                    list.extend(
-                        self.of(i)
-                            .iter()
-                            .filter(|&&j| (pos[j as usize] - xi).norm2() <= far),
-                    );
-                    counts.push((list.len() - before) as u32);
-                }
-                (counts, list)
-            })
-            .collect();
-        let (counts, lists): (Vec<Vec<u32>>, Vec<Vec<u32>>) = chunks.into_iter().unzip();
+        let (counts, lists) = chunked_lists(
+            n,
+            |a, b| (share * (self.offsets[b] - self.offsets[a]) as f64) as usize + 16,
+            |i, list| {
+                let xi = pos[i];
+                list.extend(
+                    self.of(i)
+                        .iter()
+                        .filter(|&&j| (pos[j as usize] - xi).norm2() <= far),
+                );
+            },
+        );
         crate::parallel::offsets_into(&counts, &mut out.offsets);
         crate::parallel::concat_into(&lists, &mut out.indices);
         out.cutoff = radius;
         out.near = None;
     }
+}
+
+/// Particles per parallel work unit of the list builders (docs/decisions.md, "Parallel chunk
+/// sizes").
+const CHUNK: usize = 512;
+
+/// Builds lists of `n` particles by chunks in parallel: `capacity(a, b)` entries reserved for
+/// particles `a..b`, `fill(i, list)` appends particle `i`'s neighbours. Returns the per-chunk
+/// list lengths and lists, in particle order.
+fn chunked_lists(
+    n: usize,
+    capacity: impl Fn(usize, usize) -> usize + Sync,
+    fill: impl Fn(usize, &mut Vec<u32>) + Sync,
+) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
+    (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
+            let mut counts = Vec::with_capacity(b - a);
+            let mut list = Vec::with_capacity(capacity(a, b));
+            for i in a..b {
+                let before = list.len();
+                fill(i, &mut list);
+                counts.push((list.len() - before) as u32);
+            }
+            (counts, list)
+        })
+        .unzip()
 }
 
 /// A uniform grid of cells of side `cell` covering the particles' bounding box.
@@ -251,28 +268,17 @@ pub fn build_neighbor_list_within<const D: usize>(
     let grid = CellGrid::build(points, cutoff, bounds);
     let n = points.len();
     let c2 = cutoff * cutoff;
-    // Particles per parallel work unit (docs/decisions.md, "Parallel chunk sizes").
-    const CHUNK: usize = 512;
-    let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
-            let mut counts = Vec::with_capacity(b - a);
-            let mut list = Vec::with_capacity((b - a) * 40);
-            for i in a..b {
-                let pi = points[i];
-                let before = list.len();
-                grid.for_each_within(&pi, c2, |j| {
-                    if j as usize != i {
-                        list.push(j);
-                    }
-                });
-                counts.push((list.len() - before) as u32);
-            }
-            (counts, list)
-        })
-        .collect();
-    let (counts, lists): (Vec<Vec<u32>>, Vec<Vec<u32>>) = chunks.into_iter().unzip();
+    let (counts, lists) = chunked_lists(
+        n,
+        |a, b| (b - a) * 40,
+        |i, list| {
+            grid.for_each_within(&points[i], c2, |j| {
+                if j as usize != i {
+                    list.push(j);
+                }
+            })
+        },
+    );
     let offsets = crate::parallel::offsets(&counts);
     let indices = crate::parallel::concat(&lists);
     NeighborList {
