@@ -210,6 +210,32 @@ impl<const D: usize> CellGrid<D> {
         self.linear(&c).unwrap_or(0)
     }
 
+    /// Per cell, whether it holds a point with `marked[i]`.
+    fn cells_holding(&self, marked: &[bool]) -> Vec<bool> {
+        let ncell = self.start.len() - 1;
+        let mut out = vec![false; ncell];
+        for c in 0..ncell {
+            let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
+            out[c] = self.sorted[a..b].iter().any(|&i| marked[i as usize]);
+        }
+        out
+    }
+
+    /// Whether any of the 3^D cells around `p` is flagged in `cells` (from `cells_holding`):
+    /// with cells of the cut-off's side, false means no marked point within the cut-off.
+    fn block_holds(&self, p: &Vector<D>, cells: &[bool]) -> bool {
+        let c = self.coords_of(p);
+        (0..3usize.pow(D as u32)).any(|n| {
+            let mut rem = n;
+            let mut cc = c;
+            for item in cc.iter_mut() {
+                *item = item.saturating_add((rem % 3) as i64 - 1);
+                rem /= 3;
+            }
+            self.linear(&cc).is_some_and(|k| cells[k])
+        })
+    }
+
     /// Particle indices in cell order (the order used for memory locality).
     pub fn cell_order(&self) -> &[u32] {
         &self.sorted
@@ -265,13 +291,41 @@ pub fn build_neighbor_list_within<const D: usize>(
     cutoff: f64,
     bounds: Option<(Vector<D>, Vector<D>)>,
 ) -> NeighborList {
+    build_lists(points, cutoff, bounds, None)
+}
+
+/// [`build_neighbor_list_within`] for the points that need lists: those with `moving[i]`
+/// (the fluid) and every other point with a moving one in the cells around it, which holds
+/// every point with a moving one within `cutoff` (m). The rest (wall and dummy particles out
+/// of the fluid's reach, which no pair loop of the step visits) get empty lists.
+pub fn build_neighbor_list_near<const D: usize>(
+    points: &[Vector<D>],
+    cutoff: f64,
+    bounds: Option<(Vector<D>, Vector<D>)>,
+    moving: &[bool],
+) -> NeighborList {
+    build_lists(points, cutoff, bounds, Some(moving))
+}
+
+fn build_lists<const D: usize>(
+    points: &[Vector<D>],
+    cutoff: f64,
+    bounds: Option<(Vector<D>, Vector<D>)>,
+    moving: Option<&[bool]>,
+) -> NeighborList {
     let grid = CellGrid::build(points, cutoff, bounds);
     let n = points.len();
     let c2 = cutoff * cutoff;
+    let reached = moving.map(|m| (m, grid.cells_holding(m)));
     let (counts, lists) = chunked_lists(
         n,
         |a, b| (b - a) * 40,
         |i, list| {
+            if let Some((m, cells)) = &reached {
+                if !m[i] && !grid.block_holds(&points[i], cells) {
+                    return;
+                }
+            }
             grid.for_each_within(&points[i], c2, |j| {
                 if j as usize != i {
                     list.push(j);
@@ -365,6 +419,37 @@ mod tests {
         assert!(std::ptr::eq(nl.for_radius(0.08), &nl));
         assert_eq!(loop_at(&nl, 0.05), full_small);
         assert_eq!(loop_at(&nl, 0.08), full_large);
+    }
+
+    /// Lists for the moving points and what they reach: a moving point, and a fixed point
+    /// with a moving one within the cut-off, keep the full lists; a fixed point out of every
+    /// moving point's reach has none.
+    #[test]
+    fn fixed_points_out_of_reach_get_no_lists() {
+        let l0 = 0.01;
+        let mut pts = Vec::new();
+        for a in 0..30 {
+            for b in 0..6 {
+                pts.push(Vector([a as f64 * l0, b as f64 * l0]));
+            }
+        }
+        // The fluid: the first five columns.
+        let moving: Vec<bool> = pts.iter().map(|p| p[0] < 4.5 * l0).collect();
+        let cutoff = 3.4 * l0;
+        let full = build_neighbor_list(&pts, cutoff);
+        let near = build_neighbor_list_near(&pts, cutoff, None, &moving);
+        let mut kept = 0;
+        for i in 0..pts.len() {
+            let reach = (0..pts.len()).any(|j| moving[j] && (pts[j] - pts[i]).norm() < cutoff);
+            if moving[i] || reach {
+                assert_eq!(near.of(i), full.of(i), "point {i}");
+                kept += 1;
+            } else if pts[i][0] > 4.0 * l0 + 2.0 * cutoff {
+                // Beyond the cells around every moving point: certainly out of reach.
+                assert!(near.of(i).is_empty(), "point {i}");
+            }
+        }
+        assert!(kept >= 5 * 6 && near.pairs() < full.pairs() / 2);
     }
 
     #[test]

@@ -358,11 +358,25 @@ impl<const D: usize> Simulation<D> {
 
     /// Rebuilds the neighbour lists at the current positions (after a restore).
     pub fn rebuild_neighbors(&mut self) {
-        self.neighbors = crate::particles::neighbors::build_neighbor_list_within(
-            &self.particles.position,
+        self.neighbors = self.neighbors_at(&self.particles.position);
+    }
+
+    /// Neighbour lists at positions `pos` (m) for the fluid and every wall or dummy particle
+    /// within its reach; the others, which no pair loop visits, get none (docs/decisions.md,
+    /// "Lists only within the fluid's reach").
+    fn neighbors_at(&self, pos: &[Vector<D>]) -> NeighborList {
+        let fluid: Vec<bool> = self
+            .particles
+            .kind
+            .iter()
+            .map(|k| *k == Kind::Fluid)
+            .collect();
+        crate::particles::neighbors::build_neighbor_list_near(
+            pos,
             self.cutoff(),
             self.grid_bounds(),
-        );
+            &fluid,
+        )
     }
 
     /// Recomputes number density, free-surface flags and wall pressures at the current

@@ -13,7 +13,7 @@ use crate::numerics::shifting::shift;
 use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
-use crate::particles::neighbors::{build_neighbor_list_within, locality_order};
+use crate::particles::neighbors::locality_order;
 use crate::particles::{Kind, NeighborList, Vector, View, NONE};
 use rayon::prelude::*;
 
@@ -79,8 +79,7 @@ impl<const D: usize> Simulation<D> {
         }
         // The old list goes first, so the two never coexist (peak memory).
         self.neighbors = NeighborList::default();
-        self.neighbors =
-            build_neighbor_list_within(&self.particles.position, self.cutoff(), self.grid_bounds());
+        self.neighbors = self.neighbors_at(&self.particles.position);
     }
 
     /// Stage 2: `u* = u + dt (nu lap u + g)`, `r* = r + dt u*` for fluid particles.
@@ -120,7 +119,7 @@ impl<const D: usize> Simulation<D> {
         if 2.0 * max_move > self.skin {
             self.timed(Stage::Neighbors, |s| {
                 s.neighbors = NeighborList::default();
-                s.neighbors = build_neighbor_list_within(&pred.pos, s.cutoff(), s.grid_bounds());
+                s.neighbors = s.neighbors_at(&pred.pos);
             });
         }
         Ok(())
