@@ -294,35 +294,54 @@ pub fn build_neighbor_list_within<const D: usize>(
     build_lists(points, cutoff, bounds, None)
 }
 
+/// Which points need which lists (for [`build_neighbor_list_near`]).
+#[derive(Clone, Copy)]
+pub struct ListNeeds<'a> {
+    /// The points that move (the fluid): they always get their lists.
+    pub moving: &'a [bool],
+    /// Fixed points whose lists leave out the other such points (dummy particles, which look
+    /// for fluid and wall particles only).
+    pub apart: &'a [bool],
+}
+
 /// [`build_neighbor_list_within`] for the points that need lists: those with `moving[i]`
 /// (the fluid) and every other point with a moving one in the cells around it, which holds
-/// every point with a moving one within `cutoff` (m). The rest (wall and dummy particles out
-/// of the fluid's reach, which no pair loop of the step visits) get empty lists.
+/// every point with a moving one within `cutoff` (m); an `apart` point's list leaves out the
+/// other `apart` points (the rest in the same order). The rest (wall and dummy particles out of the
+/// fluid's reach, which no pair loop of the step visits) get empty lists.
 pub fn build_neighbor_list_near<const D: usize>(
     points: &[Vector<D>],
     cutoff: f64,
     bounds: Option<(Vector<D>, Vector<D>)>,
-    moving: &[bool],
+    needs: ListNeeds,
 ) -> NeighborList {
-    build_lists(points, cutoff, bounds, Some(moving))
+    build_lists(points, cutoff, bounds, Some(needs))
 }
 
 fn build_lists<const D: usize>(
     points: &[Vector<D>],
     cutoff: f64,
     bounds: Option<(Vector<D>, Vector<D>)>,
-    moving: Option<&[bool]>,
+    needs: Option<ListNeeds>,
 ) -> NeighborList {
     let grid = CellGrid::build(points, cutoff, bounds);
     let n = points.len();
     let c2 = cutoff * cutoff;
-    let reached = moving.map(|m| (m, grid.cells_holding(m)));
+    let reached = needs.map(|nd| (nd, grid.cells_holding(nd.moving)));
     let (counts, lists) = chunked_lists(
         n,
         |a, b| (b - a) * 40,
         |i, list| {
-            if let Some((m, cells)) = &reached {
-                if !m[i] && !grid.block_holds(&points[i], cells) {
+            if let Some((nd, cells)) = &reached {
+                if !nd.moving[i] && !grid.block_holds(&points[i], cells) {
+                    return;
+                }
+                if nd.apart[i] {
+                    grid.for_each_within(&points[i], c2, |j| {
+                        if !nd.apart[j as usize] {
+                            list.push(j);
+                        }
+                    });
                     return;
                 }
             }
@@ -437,7 +456,12 @@ mod tests {
         let moving: Vec<bool> = pts.iter().map(|p| p[0] < 4.5 * l0).collect();
         let cutoff = 3.4 * l0;
         let full = build_neighbor_list(&pts, cutoff);
-        let near = build_neighbor_list_near(&pts, cutoff, None, &moving);
+        let fixed = vec![false; pts.len()];
+        let needs = ListNeeds {
+            moving: &moving,
+            apart: &fixed,
+        };
+        let near = build_neighbor_list_near(&pts, cutoff, None, needs);
         let mut kept = 0;
         for i in 0..pts.len() {
             let reach = (0..pts.len()).any(|j| moving[j] && (pts[j] - pts[i]).norm() < cutoff);

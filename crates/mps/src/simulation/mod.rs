@@ -362,20 +362,21 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Neighbour lists at positions `pos` (m) for the fluid and every wall or dummy particle
-    /// within its reach; the others, which no pair loop visits, get none (docs/decisions.md,
-    /// "Lists only within the fluid's reach").
+    /// within its reach (a dummy's without the other dummies); the others, which no
+    /// pair loop visits, get none (docs/decisions.md, "Lists only within the fluid's reach").
     fn neighbors_at(&self, pos: &[Vector<D>]) -> NeighborList {
-        let fluid: Vec<bool> = self
-            .particles
-            .kind
-            .iter()
-            .map(|k| *k == Kind::Fluid)
-            .collect();
+        let kind = &self.particles.kind;
+        let fluid: Vec<bool> = kind.iter().map(|k| *k == Kind::Fluid).collect();
+        let dummy: Vec<bool> = kind.iter().map(|k| *k == Kind::Dummy).collect();
+        let needs = crate::particles::neighbors::ListNeeds {
+            moving: &fluid,
+            apart: &dummy,
+        };
         crate::particles::neighbors::build_neighbor_list_near(
             pos,
             self.cutoff(),
             self.grid_bounds(),
-            &fluid,
+            needs,
         )
     }
 
