@@ -388,12 +388,15 @@ fn build<const D: usize>(
     case: mps::Case,
     label: &str,
     mut out: PathBuf,
+    beat: Option<&heartbeat::Heartbeat>,
 ) -> Result<Built<D>, Failure> {
     // A restart takes every particle from its checkpoint: no settled start to make first.
     let mut sim = if a.restart.is_some() {
         Simulation::<D>::new(case, label)?
     } else {
+        let mut end = 0.0;
         if let Some(r) = case.initial.as_ref().and_then(|i| i.relax.as_ref()) {
+            end = r.time;
             if !a.quiet {
                 say_err!(
                     "{label}: relaxing the tank at rest for up to {} s first ({})",
@@ -402,7 +405,12 @@ fn build<const D: usize>(
                 );
             }
         }
-        mps::io::checkpoint::build_simulation::<D>(case, label)?
+        let mut progress = |t: f64| {
+            if let Some(b) = beat {
+                b.set(format!("relaxing {label}: t = {t:.4} / {end} s"));
+            }
+        };
+        mps::io::checkpoint::build_simulation_with::<D>(case, label, &mut progress)?
     };
     let mut resumed = None;
     if let Some(ck) = &a.restart {
@@ -465,7 +473,7 @@ fn finish(a: &RunArgs, summary: &RunSummary, out: &Path, vtu: bool) -> CmdResult
 fn run_case<const D: usize>(a: RunArgs, case: mps::Case, label: String, out: PathBuf) -> CmdResult {
     let (end, vtu) = (case.time.end, case.output.vtu);
     let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
-    let (mut sim, out, resumed) = build::<D>(&a, case, &label, out)?;
+    let (mut sim, out, resumed) = build::<D>(&a, case, &label, out, beat.as_ref())?;
     open_output(&a, &sim, &label, &out, resumed.as_deref())?;
     if let Some(b) = &beat {
         b.set(format!("{label}: first step"));
@@ -526,7 +534,7 @@ fn distributed_case<const D: usize>(
     a.quiet |= !first;
     let (end, vtu) = (case.time.end, case.output.vtu);
     let beat = (!a.quiet).then(|| heartbeat::Heartbeat::start(&format!("setting up {label}")));
-    let (sim, out, resumed) = build::<D>(&a, case, &label, out)?;
+    let (sim, out, resumed) = build::<D>(&a, case, &label, out, beat.as_ref())?;
     procs.check_size(&sim, &label)?;
     let opened = match first {
         true => open_output(&a, &sim, &label, &out, resumed.as_deref()),

@@ -250,9 +250,20 @@ fn decode<const D: usize>(bytes: &[u8], path: &Path) -> Result<State<D>> {
 /// [`crate::input::case::InitialSpec`]), or from the relaxation it runs first
 /// (`[initial.relax]`).
 pub fn build_simulation<const D: usize>(case: Case, label: &str) -> Result<Simulation<D>> {
+    build_simulation_with(case, label, &mut |_| {})
+}
+
+/// [`build_simulation`], telling `progress` the time (s) a relaxation first has reached.
+pub fn build_simulation_with<const D: usize>(
+    case: Case,
+    label: &str,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Simulation<D>> {
     let initial = case.initial.clone();
     let settled = match initial.as_ref().and_then(|i| i.relax.as_ref()) {
-        Some(spec) => Some(crate::simulation::relax::relax::<D>(&case, spec, label)?),
+        Some(spec) => Some(crate::simulation::relax::relax_with::<D>(
+            &case, spec, label, progress,
+        )?),
         None => None,
     };
     let mut sim = Simulation::<D>::new(case, label)?;

@@ -41,6 +41,16 @@ pub fn relaxation_case(case: &Case, spec: &RelaxSpec) -> Case {
 /// Runs the relaxation of `case` (file `label` in messages) and returns its particles.
 /// A breakdown of the relaxation is an error naming `initial.relax`.
 pub fn relax<const D: usize>(case: &Case, spec: &RelaxSpec, label: &str) -> Result<Particles<D>> {
+    relax_with(case, spec, label, &mut |_| {})
+}
+
+/// [`relax`], telling `progress` the relaxation's time (s) after every step.
+pub fn relax_with<const D: usize>(
+    case: &Case,
+    spec: &RelaxSpec,
+    label: &str,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Particles<D>> {
     let rest = relaxation_case(case, spec);
     let mut sim = Simulation::<D>::new(rest, label)?;
     let end = spec.time;
@@ -50,6 +60,7 @@ pub fn relax<const D: usize>(case: &Case, spec: &RelaxSpec, label: &str) -> Resu
             path: label.into(),
             message: format!("initial.relax: the relaxation broke down ({b})"),
         })?;
+        progress(sim.time);
         let e = kinetic_energy(&sim.particles);
         peak = peak.max(e);
         if spec
