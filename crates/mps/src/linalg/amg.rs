@@ -367,6 +367,33 @@ impl Amg {
         }
     }
 
+    /// Keeps the coarse levels for a fine matrix `a` whose unknowns differ from the
+    /// hierarchy's by a few rows: row `k` of `a` is row `from[k]` of the old fine level, or
+    /// new ([`u32::MAX`]: it gets no coarse correction, only smoothing); old rows not in
+    /// `from` are dropped. The prolongator's rows move with their unknowns, the restriction
+    /// follows, the fine smoother is refreshed (docs/decisions.md, "AMG reuse").
+    pub fn remap_fine(&mut self, a: &CsrMatrix, from: &[u32]) {
+        let Some(l0) = self.levels.first_mut() else {
+            return;
+        };
+        let old = &l0.p;
+        let mut p = CsrMatrix::default();
+        p.row_ptr.reserve(from.len() + 1);
+        p.row_ptr.push(0);
+        for &o in from {
+            if (o as usize) < old.n() {
+                let (c, v) = old.row(o as usize);
+                p.col.extend_from_slice(c);
+                p.val.extend_from_slice(v);
+            }
+            p.row_ptr.push(p.col.len() as u32);
+        }
+        let nc = l0.r.n();
+        l0.r = transpose(&p, nc);
+        l0.p = p;
+        l0.inv_diag = inverse_diagonal(a);
+    }
+
     /// Chebyshev smoothing of `A x = b` on level `l` (`x` starts at 0 when `zero`).
     fn smooth(&self, a: &CsrMatrix, l: usize, b: &[f64], x: &mut [f64], zero: bool, w: &mut Work) {
         let lev = &self.levels[l];
@@ -513,6 +540,101 @@ mod tests {
             assert!(l.a.asymmetry() < 1e-12 * l.a.val.iter().fold(0.0f64, |m, v| m.max(v.abs())));
         }
         assert!(amg.operator_complexity(&a) < 2.0);
+    }
+
+    /// The 5-point Laplacian (Dirichlet outside) on the grid points `pts`, in their order.
+    fn laplace_on(m: usize, pts: &[(usize, usize)]) -> CsrMatrix {
+        let mut row_of = vec![u32::MAX; m * m];
+        for (k, &(x, y)) in pts.iter().enumerate() {
+            row_of[y * m + x] = k as u32;
+        }
+        CsrMatrix::from_rows(pts.iter().map(|&(x, y)| {
+            let mut row = vec![(row_of[y * m + x], 4.0)];
+            for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+                let (a, b) = (x as i64 + dx, y as i64 + dy);
+                if (0..m as i64).contains(&a) && (0..m as i64).contains(&b) {
+                    let r = row_of[b as usize * m + a as usize];
+                    if r != u32::MAX {
+                        row.push((r, -1.0));
+                    }
+                }
+            }
+            row.sort_unstable_by_key(|e| e.0);
+            row
+        }))
+    }
+
+    /// A hierarchy carried over to unknowns that are reordered, lost a few rows and gained
+    /// a few (as free-surface flags change between steps) preconditions as well as a fresh
+    /// one; carried over to the same rows it is the hierarchy refreshed in place, bit for bit.
+    #[test]
+    fn a_remapped_hierarchy_preconditions_the_changed_unknowns() {
+        let m = 64;
+        let old: Vec<(usize, usize)> = (0..m * (m - 2)).map(|i| (i % m, i / m)).collect();
+        let a_old = laplace_on(m, &old);
+        let gone = |&(x, y): &(usize, usize)| y == m - 3 && x % 3 == 0;
+        let mut new: Vec<(usize, usize)> = old.iter().copied().filter(|p| !gone(p)).collect();
+        new.extend((0..m).step_by(2).map(|x| (x, m - 2)));
+        new.reverse();
+        let a_new = laplace_on(m, &new);
+        let at: std::collections::HashMap<(usize, usize), u32> = old
+            .iter()
+            .enumerate()
+            .map(|(k, &p)| (p, k as u32))
+            .collect();
+        let from: Vec<u32> = new
+            .iter()
+            .map(|p| *at.get(p).unwrap_or(&u32::MAX))
+            .collect();
+        assert!(from.iter().filter(|&&o| o == u32::MAX).count() == m / 2);
+
+        let mut carried = Amg::new(&a_old, AmgParams::default()).unwrap();
+        carried.remap_fine(&a_new, &from);
+        let fresh = Amg::new(&a_new, AmgParams::default()).unwrap();
+        let b = vec![1.0; a_new.n()];
+        let solve = |pre: &Amg| {
+            let mut x = vec![0.0; a_new.n()];
+            let s = pcg(&a_new, &b, &mut x, pre, 1e-8, 200).unwrap();
+            (s.iterations, x)
+        };
+        let ((it_c, x_c), (it_f, x_f)) = (solve(&carried), solve(&fresh));
+        assert!(
+            it_c <= it_f + it_f / 4 + 1,
+            "carried {it_c} vs fresh {it_f} iterations"
+        );
+        let err = x_c
+            .iter()
+            .zip(&x_f)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let size = x_f.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        assert!(err < 1e-6 * size, "solutions differ by {err} (size {size})");
+        // Without it, no coarse correction: the carried hierarchy must be doing real work.
+        let (it_none, _) = {
+            let mut x = vec![0.0; a_new.n()];
+            let d = crate::linalg::Jacobi::new(&a_new);
+            (
+                pcg(&a_new, &b, &mut x, &d, 1e-8, 400).unwrap().iterations,
+                (),
+            )
+        };
+        eprintln!("iterations: carried {it_c}, fresh {it_f}, Jacobi {it_none}");
+        assert!(2 * it_c < it_none, "carried {it_c} vs Jacobi {it_none}");
+
+        let identity: Vec<u32> = (0..a_old.n() as u32).collect();
+        let (mut kept, mut same) = (
+            Amg::new(&a_old, AmgParams::default()).unwrap(),
+            Amg::new(&a_old, AmgParams::default()).unwrap(),
+        );
+        kept.refresh_fine(&a_old);
+        same.remap_fine(&a_old, &identity);
+        let r: Vec<f64> = (0..a_old.n())
+            .map(|i| ((i * 7) % 13) as f64 - 6.0)
+            .collect();
+        let (mut z1, mut z2) = (vec![0.0; r.len()], vec![0.0; r.len()]);
+        kept.apply(&a_old, &r, &mut z1);
+        same.apply(&a_old, &r, &mut z2);
+        assert_eq!(z1, z2);
     }
 
     #[test]

@@ -9,17 +9,25 @@ use crate::linalg::{
 };
 use crate::linalg::{Precondition, SolverKind};
 use crate::numerics::ppe::PressureSystem;
+use crate::particles::NONE;
 use std::time::{Duration, Instant};
 
 /// Steps an AMG hierarchy is reused for while the unknowns are unchanged (docs/decisions.md,
 /// "AMG reuse").
 const AMG_MAX_AGE: u32 = 10;
 
+/// Largest share of a kept hierarchy's rows that may have joined or left the unknowns (free
+/// surface flags, wall particles getting wet or dry) for it to be carried over to the new
+/// set (docs/decisions.md, "AMG reuse").
+const AMG_MAX_CHANGED_SHARE: f64 = 0.05;
+
 /// An AMG hierarchy kept from an earlier step.
 #[derive(Debug)]
 struct AmgCache {
-    /// The unknowns it was built for (row -> particle).
-    particle_of: Vec<u32>,
+    /// The particle ids of its unknowns (row -> id).
+    ids: Vec<u32>,
+    /// Its row of each particle id ([`NONE`] for none).
+    row_of_id: Vec<u32>,
     /// The hierarchy.
     amg: Amg,
     /// CG iterations of the solve right after the set-up.
@@ -88,18 +96,20 @@ impl PressureSolver {
         self.amg = None;
     }
 
-    /// Solves `sys` from the warm start `x`; on success `x` holds the solution.
+    /// Solves `sys` from the warm start `x`; on success `x` holds the solution. `ids` holds
+    /// every particle's id (by particle index), which a kept AMG hierarchy is keyed on.
     pub fn solve(
         &mut self,
         sys: &PressureSystem,
         x: &mut [f64],
+        ids: &[u32],
     ) -> (Result<SolveStats, NotConverged>, SolveReport) {
         let t0 = Instant::now();
         let (tol, max_iter) = (self.tolerance, self.max_iterations);
         let mut report = SolveReport::default();
         // `None`: the chosen preconditioner could not be built.
         let attempt = match self.kind.for_size(sys.matrix.n(), self.dimension) {
-            SolverKind::AmgCg => self.solve_amg(sys, x, t0, &mut report),
+            SolverKind::AmgCg => self.solve_amg(sys, x, ids, t0, &mut report),
             SolverKind::Ic0Cg => Ic0::new(&sys.matrix).map(|f| {
                 report.setup = t0.elapsed();
                 timed_pcg(sys, x, &f, tol, max_iter)
@@ -153,41 +163,78 @@ impl PressureSolver {
         (result, report)
     }
 
-    /// AMG-CG: reuse the kept hierarchy while the unknowns are the same particles and it
-    /// still converges nearly as fast as right after its set-up; rebuild otherwise.
+    /// AMG-CG: reuse the kept hierarchy while it still converges nearly as fast as right
+    /// after its set-up and its unknowns are the same particles, or nearly so (their rows
+    /// carried over by particle id); rebuild otherwise.
     fn solve_amg(
         &mut self,
         sys: &PressureSystem,
         x: &mut [f64],
+        ids: &[u32],
         t0: Instant,
         report: &mut SolveReport,
     ) -> Option<(Result<SolveStats, NotConverged>, Duration)> {
         let (tol, max_iter) = (self.tolerance, self.max_iterations);
         let last = self.last_iterations;
-        let reusable = self.amg.as_ref().is_some_and(|c| {
-            c.particle_of == sys.particle_of
-                && c.age < AMG_MAX_AGE
-                && 2 * last <= 3 * c.setup_iterations.max(4)
-        });
-        if reusable {
-            let c = self.amg.as_mut().expect("checked");
-            c.amg.refresh_fine(&sys.matrix);
-            c.age += 1;
-            report.setup = t0.elapsed();
-            return Some(timed_pcg(sys, x, &c.amg, tol, max_iter));
+        let mut row_ids: Vec<u32> = sys.particle_of.iter().map(|&i| ids[i as usize]).collect();
+        let healthy =
+            |c: &AmgCache| c.age < AMG_MAX_AGE && 2 * last <= 3 * c.setup_iterations.max(4);
+        if let Some(c) = self.amg.as_mut().filter(|c| healthy(c)) {
+            let reused = if c.ids == row_ids {
+                c.amg.refresh_fine(&sys.matrix);
+                true
+            } else {
+                let from: Vec<u32> = row_ids
+                    .iter()
+                    .map(|&id| c.row_of_id.get(id as usize).copied().unwrap_or(NONE))
+                    .collect();
+                let kept = from.iter().filter(|&&o| o != NONE).count();
+                let changed = (row_ids.len() - kept) + (c.ids.len() - kept);
+                let small = changed as f64 <= AMG_MAX_CHANGED_SHARE * row_ids.len() as f64;
+                if small {
+                    c.amg.remap_fine(&sys.matrix, &from);
+                    c.rekey(std::mem::take(&mut row_ids));
+                }
+                small
+            };
+            if reused {
+                c.age += 1;
+                report.setup = t0.elapsed();
+                return Some(timed_pcg(sys, x, &c.amg, tol, max_iter));
+            }
         }
         self.amg = None;
         let amg = Amg::new(&sys.matrix, AmgParams::default())?;
         report.setup = t0.elapsed();
         let (r, solve) = timed_pcg(sys, x, &amg, tol, max_iter);
         if let Ok(st) = r {
-            self.amg = Some(AmgCache {
-                particle_of: sys.particle_of.clone(),
+            let mut cache = AmgCache {
+                ids: Vec::new(),
+                row_of_id: Vec::new(),
                 amg,
                 setup_iterations: st.iterations,
                 age: 0,
-            });
+            };
+            cache.rekey(row_ids);
+            self.amg = Some(cache);
         }
         Some((r, solve))
+    }
+}
+
+impl AmgCache {
+    /// Makes `ids` (row -> particle id) the hierarchy's unknowns.
+    fn rekey(&mut self, ids: Vec<u32>) {
+        for &id in &self.ids {
+            self.row_of_id[id as usize] = NONE;
+        }
+        let top = ids.iter().map(|&id| id as usize + 1).max().unwrap_or(0);
+        if self.row_of_id.len() < top {
+            self.row_of_id.resize(top, NONE);
+        }
+        for (k, &id) in ids.iter().enumerate() {
+            self.row_of_id[id as usize] = k as u32;
+        }
+        self.ids = ids;
     }
 }

@@ -310,7 +310,7 @@ impl<const D: usize> Simulation<D> {
                     },
                 )
             }
-            None => self.solver.solve(&sys, &mut x),
+            None => self.solver.solve(&sys, &mut x, &self.particles.id),
         };
         self.timers.add(Stage::PpeSetup, solved.setup);
         self.timers.add(Stage::PpeSolve, solved.solve);
