@@ -13,7 +13,8 @@ use super::shapes::{inside, shape_bounds, to_vec};
 use crate::error::CaseError;
 use crate::numerics::kernel::for_each_lattice_offset;
 use crate::particles::{Kind, NewParticle, Particles, Vector, NONE};
-use std::collections::{BTreeMap, HashMap, HashSet};
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use std::collections::BTreeMap;
 
 type Site<const D: usize> = [i64; D];
 
@@ -124,27 +125,42 @@ impl<const D: usize> Lattice<D> {
     }
 
     /// Lattice (Chebyshev) distance from solid site `s` to the nearest free site inside the
-    /// domain, up to the number of layers; `None` beyond.
-    fn depth(&self, s: &Site<D>, solid: &HashSet<Site<D>>) -> Option<i64> {
+    /// domain, up to the number of layers; `None` beyond. `shells[m - 1]` holds the offsets
+    /// at Chebyshev distance `m` ([`offsets_by_length`]).
+    fn depth(&self, s: &Site<D>, solid: &HashSet<Site<D>>, shells: &[Vec<Site<D>>]) -> Option<i64> {
         (1..=self.layers).find(|&m| {
-            let mut found = false;
-            for_each_lattice_offset::<D>(m, |off| {
-                let cheb = off.0.iter().fold(0.0f64, |a, &c| a.max(c.abs())) as i64;
-                if found || cheb != m {
-                    return;
-                }
-                let t = shifted(s, &off);
-                found = !solid.contains(&t) && self.in_domain(&t);
-            });
-            found
+            shells[m as usize - 1].iter().any(|off| {
+                let t = shifted(s, off);
+                !solid.contains(&t) && self.in_domain(&t)
+            })
         })
     }
 }
 
-fn shifted<const D: usize>(s: &Site<D>, off: &Vector<D>) -> Site<D> {
+/// Every lattice offset with coordinates in `-k..=k`, shortest first; offsets of equal length
+/// keep the order of [`for_each_lattice_offset`] (a stable sort).
+fn offsets_by_length<const D: usize>(k: i64) -> Vec<Site<D>> {
+    let mut out = Vec::new();
+    for_each_lattice_offset::<D>(k, |off| {
+        let mut t = [0i64; D];
+        for c in 0..D {
+            t[c] = off[c] as i64;
+        }
+        out.push(t);
+    });
+    out.sort_by_key(|t| t.iter().map(|c| c * c).sum::<i64>());
+    out
+}
+
+/// Chebyshev distance of a lattice offset (lattice spacings).
+fn chebyshev<const D: usize>(t: &Site<D>) -> i64 {
+    t.iter().fold(0, |a, c| a.max(c.abs()))
+}
+
+fn shifted<const D: usize>(s: &Site<D>, off: &Site<D>) -> Site<D> {
     let mut t = *s;
     for k in 0..D {
-        t[k] += off[k] as i64;
+        t[k] += off[k];
     }
     t
 }
@@ -323,9 +339,13 @@ pub fn build_particles<const D: usize>(
     // Solid sites by lattice distance to the nearest free site: 1 = wall, deeper = dummy.
     let mut solid_sites: Vec<Site<D>> = solid.iter().copied().collect();
     solid_sites.sort();
+    let near = offsets_by_length::<D>(lat.layers);
+    let shells: Vec<Vec<Site<D>>> = (1..=lat.layers)
+        .map(|m| near.iter().copied().filter(|t| chebyshev(t) == m).collect())
+        .collect();
     let (mut walls, mut dummies) = (Vec::new(), Vec::new());
     for s in solid_sites {
-        match lat.depth(&s, &solid) {
+        match lat.depth(&s, &solid, &shells) {
             Some(1) => walls.push(s),
             Some(_) => dummies.push(s),
             None => {}
@@ -378,7 +398,7 @@ pub fn build_particles<const D: usize>(
         phase: 0,
         density: case.phases[0].density,
     };
-    let mut wall_index: HashMap<Site<D>, u32> = HashMap::new();
+    let mut wall_index: HashMap<Site<D>, u32> = HashMap::default();
     for s in &walls {
         wall_index.insert(*s, p.len() as u32);
         p.push(solid_particle(site_position(s, l0), Kind::Wall));
@@ -386,19 +406,13 @@ pub fn build_particles<const D: usize>(
     for s in &dummies {
         let x = site_position(s, l0);
         p.push(solid_particle(x, Kind::Dummy));
-        // Backing wall: the nearest wall site (ties: first in offset order).
-        let mut best = (f64::MAX, NONE);
-        for_each_lattice_offset::<D>(lat.layers, |off| {
-            let t = shifted(s, &off);
-            if let Some(&w) = wall_index.get(&t) {
-                let d = (site_position(&t, l0) - x).norm2();
-                if d < best.0 - 1e-12 * l0 * l0 {
-                    best = (d, w);
-                }
-            }
-        });
+        // Backing wall: the nearest wall site (ties: first in offset order), the first
+        // found in `near`, which lists the offsets shortest first in that order.
         let i = p.len() - 1;
-        p.backing_wall[i] = best.1;
+        p.backing_wall[i] = near
+            .iter()
+            .find_map(|off| wall_index.get(&shifted(s, off)).copied())
+            .unwrap_or(NONE);
     }
     Ok(p)
 }
@@ -447,6 +461,33 @@ pub fn group_names(case: &Case) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The offsets the layer depths and backing walls are searched in: shortest first, equal
+    /// lengths in the lattice enumeration's order, so the first wall found is the nearest
+    /// with the old tie-break.
+    #[test]
+    fn lattice_offsets_come_shortest_first_in_enumeration_order() {
+        let o = offsets_by_length::<2>(1);
+        let want: Vec<Site<2>> = vec![
+            [0, 0],
+            [0, -1],
+            [-1, 0],
+            [1, 0],
+            [0, 1],
+            [-1, -1],
+            [1, -1],
+            [-1, 1],
+            [1, 1],
+        ];
+        assert_eq!(o, want);
+        let o3 = offsets_by_length::<3>(2);
+        assert_eq!(o3.len(), 125);
+        assert!(o3.windows(2).all(|w| {
+            let l = |t: &Site<3>| t.iter().map(|c| c * c).sum::<i64>();
+            l(&w[0]) <= l(&w[1])
+        }));
+        assert_eq!(o3.iter().filter(|t| chebyshev(t) == 2).count(), 125 - 27);
+    }
 
     /// A tank 0.2 m x 0.3 m, 10 cm of water, l0 = 1 cm, and `extra` case text.
     fn tank_case(extra: &str) -> Case {
