@@ -191,13 +191,29 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// [`dot`] with its chunks handed to the pool in pieces of at least `min_chunks` chunks
 /// (`usize::MAX`: all on the calling thread); the same result either way.
+///
+/// The chunks' partial sums are added in chunk order, on this thread; they are kept on the
+/// stack (no allocation inside CG) up to 64 chunks.
 pub fn dot_split(a: &[f64], b: &[f64], min_chunks: usize) -> f64 {
-    let parts: Vec<f64> = a
-        .par_chunks(CHUNK)
-        .zip(b.par_chunks(CHUNK))
+    const ON_STACK: usize = 64;
+    let chunk_sum = |(x, y): (&[f64], &[f64])| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
+    let m = a.len().div_ceil(CHUNK);
+    if min_chunks >= m {
+        // One piece: the pool would run it here anyway.
+        return a.chunks(CHUNK).zip(b.chunks(CHUNK)).map(chunk_sum).sum();
+    }
+    let (mut stack, mut heap) = ([0.0; ON_STACK], Vec::new());
+    let parts: &mut [f64] = if m <= ON_STACK {
+        &mut stack[..m]
+    } else {
+        heap.resize(m, 0.0);
+        &mut heap
+    };
+    parts
+        .par_iter_mut()
+        .zip(a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)))
         .with_min_len(min_chunks)
-        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>())
-        .collect();
+        .for_each(|(p, c)| *p = chunk_sum(c));
     parts.iter().sum()
 }
 
