@@ -41,6 +41,9 @@ pub struct BenchArgs {
     /// A stored `--csv` of the same command: print every figure against it as new / old.
     #[arg(long)]
     baseline: Option<PathBuf>,
+    /// With --ladder: write the ladder here as a Markdown table, in the README's columns.
+    #[arg(long, requires = "ladder")]
+    markdown: Option<PathBuf>,
 }
 
 struct Row {
@@ -339,6 +342,9 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str, baseline: Option<&Table>) -> 
     let mut csv = String::from(
         "particles,fluid,threads,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,non_ppe_ns_per_particle_core,peak_bytes_per_particle,spmv_ms,spmv_gb_per_s,spmv_bandwidth_ratio,ppe_spmv_equivalents,triad_gb_per_s\n",
     );
+    let mut md = String::from(
+        "| particles | threads | ms/step | M particle-steps/s | CG it | neighb | assembly | set-up | solve | rest (ms) | non-PPE ns/particle/core | bytes/particle | SpMV / triad | PPE in SpMVs |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
     let mut rows = Vec::new();
     for &target in &a.ladder {
         let c = scaled_case(case, fluid0, target);
@@ -377,14 +383,50 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str, baseline: Option<&Table>) -> 
                 "{},{},{t},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{non_ppe_ns:.1},{bytes:.0},{spmv_ms:.4},{spmv_gbs:.3},{ratio:.3},{equiv:.2},{bw:.3}\n",
                 r.particles, r.fluid, r.steps, r.mean_iterations
             ));
+            md.push_str(&format!(
+                "| {} | {t} | {} | {:.3} | {:.1} | {} | {} | {} | {} | {} | {non_ppe_ns:.0} | {bytes:.0} | {ratio:.2} | {equiv:.0} |\n",
+                count_label(r.particles),
+                figure(total),
+                pss / 1e6,
+                r.mean_iterations,
+                figure(nb),
+                figure(asm),
+                figure(setup),
+                figure(sol),
+                figure(rest),
+            ));
             rows.push(r);
         }
     }
     finish(a, &csv, baseline)?;
+    if let Some(p) = &a.markdown {
+        mps::io::write_atomic(p, md.as_bytes())?;
+        say!("wrote {}", p.display());
+    }
     if let Some(dir) = &a.plot {
         ladder_charts(a, &rows, dir)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A particle count as the README's tables give it: `12.5k`, `170k`, `1.02M`.
+fn count_label(n: usize) -> String {
+    let x = n as f64;
+    match x {
+        x if x >= 1e6 => format!("{:.2}M", x / 1e6),
+        x if x >= 1e5 => format!("{:.0}k", x / 1e3),
+        x if x >= 1e3 => format!("{:.1}k", x / 1e3),
+        _ => n.to_string(),
+    }
+}
+
+/// A time (ms) to three significant figures, as the README's tables give it.
+fn figure(ms: f64) -> String {
+    match ms.abs() {
+        m if m >= 100.0 => format!("{ms:.0}"),
+        m if m >= 10.0 => format!("{ms:.1}"),
+        _ => format!("{ms:.2}"),
+    }
 }
 
 /// Charts of a ladder over the particle count (logarithmic axis): iterations, and time per

@@ -573,10 +573,16 @@ fn main() -> ExitCode {
                 let _ = e.print();
                 return ExitCode::SUCCESS;
             }
-            // One line, as every bad input gets (clap adds a usage hint below it).
+            // One line, as every bad input gets: clap's first paragraph (a missing argument
+            // is named on the line after the message), without the usage hint below it.
             let text = e.render().to_string();
-            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
-            say_err!("{} (mps --help)", first.trim_end());
+            let first: Vec<&str> = text
+                .lines()
+                .skip_while(|l| l.trim().is_empty())
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            say_err!("{} (mps --help)", first.join(" "));
             return ExitCode::from(1);
         }
     };

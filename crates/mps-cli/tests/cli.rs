@@ -93,6 +93,15 @@ fn missing_file_is_a_clear_error() {
             "{err}"
         );
     }
+    // A missing argument is named on the same line.
+    let out = mps()
+        .args(["bench", "--markdown", "x.md"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("--ladder"), "{err}");
 }
 
 #[test]
