@@ -12,8 +12,8 @@ use crate::numerics::ppe::PressureSystem;
 use crate::particles::NONE;
 use std::time::{Duration, Instant};
 
-/// Steps an AMG hierarchy is reused for while the unknowns are unchanged (docs/decisions.md,
-/// "AMG reuse").
+/// Steps an AMG hierarchy is reused for while the unknowns are the same or nearly the same
+/// particles (docs/decisions.md, "AMG reuse").
 const AMG_MAX_AGE: u32 = 10;
 
 /// Largest share of a kept hierarchy's rows that may have joined or left the unknowns (free
