@@ -204,7 +204,7 @@ impl PressureSolver {
             }
         }
         self.amg = None;
-        let amg = Amg::new(&sys.matrix, AmgParams::default())?;
+        let amg = Amg::new(&sys.matrix, AmgParams::for_dimension(self.dimension))?;
         report.setup = t0.elapsed();
         let (r, solve) = timed_pcg(sys, x, &amg, tol, max_iter);
         if let Ok(st) = r {
