@@ -23,7 +23,7 @@
 //! aggregation, and the parameters: docs/decisions.md, "AMG parameters".
 
 use super::pcg::Precondition;
-use super::sparse::{spgemm, transpose, without_weak_into, CsrMatrix};
+use super::sparse::{spgemm, transpose, CsrMatrix};
 use rayon::prelude::*;
 use std::sync::Mutex;
 
@@ -561,6 +561,63 @@ impl Level {
     }
 }
 
+/// `a` without its weak couplings, into `out` (its memory reused): every off-diagonal entry
+/// with `|a_ij| < drop sqrt(a_ii a_jj)` is left out and added to the diagonal of its row, so
+/// each row keeps its sum; the test is symmetric, so a symmetric `a` gives a symmetric
+/// result. Rows must hold their diagonal.
+fn without_weak_into(a: &CsrMatrix, drop: f64, out: &mut CsrMatrix) {
+    const ROWS: usize = 1024;
+    let d = a.diagonal();
+    let d2 = drop * drop;
+    let n = a.n();
+    // Per chunk of rows: (row lengths, columns, values).
+    let parts: Vec<(Vec<u32>, Vec<u32>, Vec<f64>)> = (0..n.div_ceil(ROWS))
+        .into_par_iter()
+        .map(|c| {
+            let (lo, hi) = (c * ROWS, ((c + 1) * ROWS).min(n));
+            let span = (a.row_ptr[hi] - a.row_ptr[lo]) as usize;
+            let (mut lens, mut cols, mut vals) = (
+                Vec::with_capacity(hi - lo),
+                Vec::with_capacity(span / 2),
+                Vec::with_capacity(span / 2),
+            );
+            for i in lo..hi {
+                let (c, v) = a.row(i);
+                let (start, mut diag_at, mut dropped) = (cols.len(), usize::MAX, 0.0);
+                for (&j, &x) in c.iter().zip(v) {
+                    let j = j as usize;
+                    if j == i {
+                        diag_at = vals.len();
+                    } else if x * x < d2 * d[i] * d[j] {
+                        dropped += x;
+                        continue;
+                    }
+                    cols.push(j as u32);
+                    vals.push(x);
+                }
+                if diag_at != usize::MAX {
+                    vals[diag_at] += dropped;
+                }
+                lens.push((cols.len() - start) as u32);
+            }
+            (lens, cols, vals)
+        })
+        .collect();
+    out.row_ptr.clear();
+    out.row_ptr.push(0);
+    let mut at = 0u32;
+    for (lens, _, _) in &parts {
+        for l in lens {
+            at += l;
+            out.row_ptr.push(at);
+        }
+    }
+    let (cols, vals): (Vec<Vec<u32>>, Vec<Vec<f64>>) =
+        parts.into_iter().map(|(_, c, v)| (c, v)).unzip();
+    crate::parallel::concat_into(&cols, &mut out.col);
+    crate::parallel::concat_into(&vals, &mut out.val);
+}
+
 /// `res = b - A x`.
 fn residual(a: &CsrMatrix, b: &[f64], x: &[f64], res: &mut [f64]) {
     a.spmv(x, res);
@@ -611,6 +668,32 @@ mod tests {
             row.sort_unstable_by_key(|e| e.0);
             row
         }))
+    }
+
+    /// Thinning keeps symmetry and every row sum, leaves out exactly the couplings below the
+    /// threshold (on the lattice: beyond sqrt(2) l0 at drop 0.035), and at drop 0 is the
+    /// matrix itself.
+    #[test]
+    fn thinning_keeps_row_sums_symmetry_and_the_near_couplings() {
+        let a = crate::linalg::sparse::tests::mps_lattice(20);
+        let mut t = CsrMatrix::default();
+        without_weak_into(&a, 0.035, &mut t);
+        assert_eq!(t.n(), a.n());
+        assert_eq!(t.asymmetry(), 0.0);
+        let ones = vec![1.0; a.n()];
+        let (mut sa, mut st) = (vec![0.0; a.n()], vec![0.0; a.n()]);
+        a.spmv(&ones, &mut sa);
+        t.spmv(&ones, &mut st);
+        for i in 0..a.n() {
+            assert!((sa[i] - st[i]).abs() < 1e-12 * a.get(i, i), "row {i}");
+        }
+        // An interior row keeps itself and its 8 neighbours within sqrt(2) l0.
+        let mid = 10 * 20 + 10;
+        assert_eq!(a.row(mid).0.len(), 29);
+        assert_eq!(t.row(mid).0.len(), 9);
+        assert!(t.get(mid, mid + 21) != 0.0 && t.get(mid, mid + 2) == 0.0);
+        without_weak_into(&a, 0.0, &mut t);
+        assert_eq!((&t.row_ptr, &t.col, &t.val), (&a.row_ptr, &a.col, &a.val));
     }
 
     /// Built on the MPS lattice Laplacian without its weak couplings, the hierarchy still
