@@ -209,6 +209,29 @@ pub fn hydrostatic(
     ))
 }
 
+/// Laplace check: a measured pressure jump `jump` (Pa) across a drop of radius `radius`
+/// (m) against `sigma (dimension - 1) / radius` (`sigma` in N/m), within `tolerance`.
+pub fn laplace_jump(
+    jump: f64,
+    sigma: f64,
+    radius: f64,
+    dimension: usize,
+    tolerance: f64,
+) -> ValidationResult {
+    let exact = sigma * (dimension as f64 - 1.0) / radius;
+    ValidationResult::new(
+        "laplace_pressure_jump",
+        jump,
+        exact,
+        (jump - exact) / exact,
+        tolerance,
+        format!(
+            "mean pressure inside minus outside against sigma (d - 1) / R = {sigma} * {} / {radius}",
+            dimension - 1
+        ),
+    )
+}
+
 /// Dam-break check: RMS of `Z_sim - Z_exp` against Martin & Moyce at most 0.3, and the rows
 /// of the comparison.
 pub fn dam_break(

@@ -43,6 +43,9 @@ pub struct Case {
     pub output: OutputSpec,
     /// Materials.
     pub phases: Vec<PhaseSpec>,
+    /// Interfacial tensions between pairs of phases (beyond the paper; none by default).
+    #[serde(default)]
+    pub interfaces: Vec<InterfaceSpec>,
     /// Fluid regions, filled on the particle lattice in order.
     #[serde(default)]
     pub fluid: Vec<FluidSpec>,
@@ -304,6 +307,18 @@ pub struct PhaseSpec {
     pub viscosity: f64,
 }
 
+/// An interface between two immiscible phases with its tension (`[[interfaces]]`; beyond
+/// the paper): particles of the two phases repel so that the contact between them stores
+/// `tension` joules per square metre (`numerics::interfacial_tension`).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterfaceSpec {
+    /// The two phases' names.
+    pub phases: Vec<String>,
+    /// Interfacial tension (N/m).
+    pub tension: f64,
+}
+
 /// A geometric shape.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
@@ -537,6 +552,10 @@ impl Default for BreakdownSpec {
 fn default_min_pair() -> f64 {
     0.3
 }
+fn default_laplace_tolerance() -> f64 {
+    0.1
+}
+
 fn default_min_dt_ratio() -> f64 {
     1e-3
 }
@@ -635,6 +654,24 @@ pub enum ValidationSpec {
         radius: f64,
         /// Initial strain rate `A0` (1/s).
         strain_rate: f64,
+    },
+    /// A drop at rest under interfacial tension (the case's one `[[interfaces]]` entry):
+    /// the pressure jump between a probe inside and one outside, each averaged from `from`
+    /// (s) to the end, against the Laplace law `sigma (d - 1) / R` (`sigma / R` for a
+    /// circle, `2 sigma / R` for a sphere), within `tolerance` (relative).
+    Laplace {
+        /// Probe inside the drop.
+        inside: String,
+        /// Probe outside the drop.
+        outside: String,
+        /// Drop radius `R` (m).
+        radius: f64,
+        /// Start of the averaging window (s).
+        #[serde(default)]
+        from: f64,
+        /// Largest accepted relative error (default 0.1).
+        #[serde(default = "default_laplace_tolerance")]
+        tolerance: f64,
     },
     /// An exact steady flow (a Taylor-Green cell in a slip box, solid rotation): the first
     /// fluid region's initial velocity field, evaluated at the fluid particles' positions at
@@ -1005,6 +1042,46 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
             let s = e.to_string();
             assert!(s.contains("dimension") && s.contains(d), "{s}");
         }
+    }
+
+    /// Interfaces name two different known phases once each, with a positive tension.
+    #[test]
+    fn a_bad_interface_is_named() {
+        let two = format!("{MINIMAL}[[phases]]\nname = \"oil\"\ndensity = 800.0\n");
+        let with = |t: &str| format!("{two}[[interfaces]]\n{t}\n");
+        let ok = with("phases = [\"water\", \"oil\"]\ntension = 0.03");
+        let c = Case::from_str_named(&ok, "t.toml", &[]).unwrap();
+        assert_eq!(c.interfaces[0].tension, 0.03);
+        for (text, field, value) in [
+            (
+                "phases = [\"water\", \"gas\"]\ntension = 0.03",
+                "interfaces.0.phases",
+                "\"gas\"",
+            ),
+            (
+                "phases = [\"water\", \"water\"]\ntension = 0.03",
+                "interfaces.0.phases",
+                "",
+            ),
+            (
+                "phases = [\"water\"]\ntension = 0.03",
+                "interfaces.0.phases",
+                "",
+            ),
+            (
+                "phases = [\"water\", \"oil\"]\ntension = -1.0",
+                "interfaces.0.tension",
+                "-1",
+            ),
+        ] {
+            let e = Case::from_str_named(&with(text), "t.toml", &[]).unwrap_err();
+            assert_eq!(e.field, field, "{e}");
+            assert!(e.value.contains(value), "{e}");
+            assert!(e.to_string().contains("t.toml"), "{e}");
+        }
+        let twice = format!("{ok}[[interfaces]]\nphases = [\"oil\", \"water\"]\ntension = 0.02\n");
+        let e = Case::from_str_named(&twice, "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "interfaces.1.phases", "{e}");
     }
 
     #[test]

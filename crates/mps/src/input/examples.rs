@@ -38,6 +38,11 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/closed_box.toml"),
     ),
     (
+        "laplace_drop",
+        "Drop under interfacial tension at rest: pressure jump against the Laplace law",
+        include_str!("../../cases/laplace_drop.toml"),
+    ),
+    (
         "rotating_disc",
         "Disc in solid rotation: exact steady state under tension (your own free-surface test)",
         include_str!("../../cases/rotating_disc.toml"),

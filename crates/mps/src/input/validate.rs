@@ -2,7 +2,8 @@
 //! ranges. Every error names the file, the field and the value.
 
 use super::case::{
-    Arrangement, Case, FluidSpec, PressureSpec, ShapeSpec, ValidationSpec, VelocitySpec,
+    Arrangement, Case, FluidSpec, InterfaceSpec, PressureSpec, ShapeSpec, ValidationSpec,
+    VelocitySpec,
 };
 use super::expression::Expression;
 use super::shapes::shape_bounds;
@@ -237,6 +238,26 @@ impl Case {
                 c.positive("validation.radius", *radius)?;
                 finite("validation.strain_rate", *strain_rate)
             }
+            Some(ValidationSpec::Laplace {
+                radius,
+                from,
+                tolerance,
+                ..
+            }) => {
+                if self.interfaces.len() != 1 {
+                    let n = self.interfaces.len().to_string();
+                    let msg = "the Laplace check needs exactly one [[interfaces]] entry";
+                    return c.fail("interfaces", n, msg);
+                }
+                c.positive("validation.radius", *radius)?;
+                c.positive("validation.tolerance", *tolerance)?;
+                c.require(
+                    from.is_finite() && *from >= 0.0,
+                    "validation.from",
+                    *from,
+                    "must be a time >= 0",
+                )
+            }
             Some(ValidationSpec::ProbeReference {
                 rms_tolerance,
                 peak_tolerance,
@@ -355,6 +376,33 @@ impl Case {
                 let field = format!("phases.{k}.name");
                 return c.fail(&field, format!("{:?}", p.name), "duplicate phase name");
             }
+        }
+        for (k, f) in self.interfaces.iter().enumerate() {
+            let field = format!("interfaces.{k}.phases");
+            let names = format!("{:?}", f.phases);
+            if f.phases.len() != 2 || f.phases[0] == f.phases[1] {
+                return c.fail(&field, names, "must name two different phases");
+            }
+            if let Some(n) = f
+                .phases
+                .iter()
+                .find(|n| !self.phases.iter().any(|p| &p.name == *n))
+            {
+                return c.fail(&field, format!("{n:?}"), "no phase of this name");
+            }
+            let same = |g: &InterfaceSpec| {
+                g.phases.len() == 2
+                    && ((g.phases[0] == f.phases[0] && g.phases[1] == f.phases[1])
+                        || (g.phases[0] == f.phases[1] && g.phases[1] == f.phases[0]))
+            };
+            if self.interfaces[..k].iter().any(same) {
+                return c.fail(
+                    &field,
+                    names,
+                    "this pair of phases already has an interface",
+                );
+            }
+            c.positive(&format!("interfaces.{k}.tension"), f.tension)?;
         }
         Ok(())
     }
@@ -476,6 +524,19 @@ impl Case {
                     format!("{probe:?}"),
                     "no probe of this name",
                 );
+            }
+        }
+        if let Some(ValidationSpec::Laplace {
+            inside, outside, ..
+        }) = &self.validation
+        {
+            for (field, probe) in [
+                ("validation.inside", inside),
+                ("validation.outside", outside),
+            ] {
+                if !self.probes.iter().any(|p| &p.name == probe) {
+                    return c.fail(field, format!("{probe:?}"), "no probe of this name");
+                }
             }
         }
         let b = &self.breakdown;

@@ -10,6 +10,7 @@
 pub mod collision;
 pub mod density;
 pub mod gradient;
+pub mod interfacial_tension;
 pub mod kernel;
 pub mod operators;
 pub mod pairs;

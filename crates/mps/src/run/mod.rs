@@ -14,7 +14,7 @@ use crate::analysis::metrics::Metrics;
 use crate::analysis::probes::{noise, smooth, SMOOTHING_WINDOW};
 use crate::analysis::validation::{
     against_curve, curve_results, dam_break, early_acceleration, elliptic_drop, hydrostatic,
-    rotating_disc, steady_flow, surface_mode, DiscSpec, ValidationResult,
+    laplace_jump, rotating_disc, steady_flow, surface_mode, DiscSpec, ValidationResult,
 };
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
@@ -458,6 +458,28 @@ fn validate<const D: usize>(
         }) => {
             let u = rec.rim.as_ref().map_or(0.0, |r| r.initial_velocity);
             surface_mode(&rec.rim_series, u, (*omega, *mode), *until, *tolerance)
+        }
+        Some(ValidationSpec::Laplace {
+            inside,
+            outside,
+            radius,
+            from,
+            tolerance,
+        }) => {
+            let mean = |probe: &str| {
+                let series = &rec.probe_series[probe_index(case, probe)];
+                let sel: Vec<f64> = series
+                    .iter()
+                    .filter(|s| s.0 >= *from)
+                    .map(|s| s.1)
+                    .collect();
+                (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
+            };
+            let sigma = case.interfaces.first().map_or(0.0, |f| f.tension);
+            match (mean(inside), mean(outside)) {
+                (Some(a), Some(b)) => Some(laplace_jump(a - b, sigma, *radius, D, *tolerance)),
+                _ => None,
+            }
         }
         Some(ValidationSpec::SteadyFlow { tolerance }) => {
             steady_flow(steady_flow_sums(sim), *tolerance)

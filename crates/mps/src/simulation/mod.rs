@@ -22,6 +22,7 @@ use crate::error::CaseError;
 use crate::input::case::Outflow;
 use crate::input::Case;
 use crate::linalg::SolveStats;
+use crate::numerics::interfacial_tension::Interfaces;
 use crate::numerics::ppe::PressureSystem;
 use crate::numerics::{weight, Kernels, Scheme};
 use crate::particles::{Kind, NeighborList, Particles, Vector, View};
@@ -76,6 +77,8 @@ pub struct Simulation<const D: usize> {
     pub gravity: Vector<D>,
     /// Kinematic viscosity per phase (m^2/s).
     pub phase_viscosity: Vec<f64>,
+    /// Interfacial tensions by phase (`numerics::interfacial_tension`; empty without).
+    pub interfaces: Interfaces,
     /// Simulated time (s).
     pub time: f64,
     /// Steps taken.
@@ -133,6 +136,21 @@ pub fn fills_a_closed_tank<const D: usize>(case: &Case, p: &Particles<D>) -> boo
     })
 }
 
+/// The interfaces of `case` by phase, with each tension (N/m) and density factor
+/// `2 / (rho_a + rho_b)` (m^3/kg).
+fn interfaces_of(case: &Case) -> Interfaces {
+    let index = |name: &str| case.phases.iter().position(|p| p.name == name);
+    let mut of_phase = vec![Vec::new(); case.phases.len()];
+    for f in &case.interfaces {
+        if let (Some(a), Some(b)) = (index(&f.phases[0]), index(&f.phases[1])) {
+            let factor = 2.0 / (case.phases[a].density + case.phases[b].density);
+            of_phase[a].push((b as u16, f.tension, factor));
+            of_phase[b].push((a as u16, f.tension, factor));
+        }
+    }
+    Interfaces { of_phase }
+}
+
 impl<const D: usize> Simulation<D> {
     /// Builds the particles of `case` and prepares the run; `label` names the case in errors.
     pub fn new(case: Case, label: &str) -> Result<Self, CaseError> {
@@ -160,6 +178,7 @@ impl<const D: usize> Simulation<D> {
         });
         let mut sim = Simulation {
             phase_viscosity: case.phases.iter().map(|p| p.viscosity).collect(),
+            interfaces: interfaces_of(&case),
             solver: PressureSolver::new(&case.solver, D),
             case,
             particles,

@@ -7,6 +7,7 @@ use super::{Simulation, Stage, StepReport};
 use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
+use crate::numerics::interfacial_tension::{surface_force, TensionInput};
 use crate::numerics::operators::{laplacian_vector, number_density};
 use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
 use crate::numerics::shifting::shift;
@@ -82,11 +83,14 @@ impl<const D: usize> Simulation<D> {
         self.neighbors = self.neighbors_at(&self.particles.position);
     }
 
-    /// Stage 2: `u* = u + dt (nu lap u + g)`, `r* = r + dt u*` for fluid particles.
+    /// Stage 2: `u* = u + dt (nu lap u + g + a_tension)`, `r* = r + dt u*` for fluid
+    /// particles (`a_tension` from `numerics::interfacial_tension` where the case has
+    /// interfaces).
     pub(super) fn predict(&self, dt: f64) -> Predicted<D> {
         let p = &self.particles;
         let k = &self.kernels.lap;
         let g = self.gravity;
+        let tension = self.surface_tension();
         let (vel, pos) = (0..p.len())
             .into_par_iter()
             .map(|i| {
@@ -98,11 +102,32 @@ impl<const D: usize> Simulation<D> {
                 if nu > 0.0 {
                     a += laplacian_vector(i, &p.position, &p.velocity, &self.neighbors, k) * nu;
                 }
+                if let Some(t) = &tension {
+                    a += t[i];
+                }
                 let u = p.velocity[i] + a * dt;
                 (u, p.position[i] + u * dt)
             })
             .unzip();
         Predicted { pos, vel }
+    }
+
+    /// Stage 2a: the interfacial-tension accelerations at `r` (`None` without interfaces).
+    fn surface_tension(&self) -> Option<Vec<Vector<D>>> {
+        if self.interfaces.is_empty() {
+            return None;
+        }
+        let p = &self.particles;
+        let fluid: Vec<bool> = p.kind.iter().map(|k| *k == Kind::Fluid).collect();
+        let inp = TensionInput {
+            pos: &p.position,
+            nl: &self.neighbors,
+            re: self.kernels.lap.re,
+            l0: self.kernels.l0,
+            phase: &p.phase,
+            fluid: &fluid,
+        };
+        Some(surface_force(&inp, &self.interfaces))
     }
 
     /// Rebuilds the neighbour lists at `r*` when a particle moved more than half the skin.

@@ -80,13 +80,31 @@ impl<const D: usize> Simulation<D> {
             if nu > 0.0 {
                 dt = dt.min(0.1 * l0 * l0 / nu);
             }
-            dt
+            dt.min(capillary_time_step(&self.case))
         };
         if dt < self.case.breakdown.min_dt_ratio * self.dt_max {
             return Err(BreakdownReason::TimeStepCollapse { dt });
         }
         Ok(land_on(until - self.time, dt))
     }
+}
+
+/// The capillary limit of the step (s), `sqrt(rho_mean l0^3 / (2 pi sigma))` over the case's
+/// interfaces (Brackbill, Kothe & Zemach 1992, with `rho_mean` the two phases' mean
+/// density); infinite without interfaces.
+pub fn capillary_time_step(case: &Case) -> f64 {
+    let l0 = case.particles.spacing;
+    let density = |name: &str| {
+        let p = case.phases.iter().find(|p| p.name == name);
+        p.map_or(f64::NAN, |p| p.density)
+    };
+    case.interfaces
+        .iter()
+        .map(|f| {
+            let rho = 0.5 * (density(&f.phases[0]) + density(&f.phases[1]));
+            (rho * l0.powi(3) / (2.0 * std::f64::consts::PI * f.tension)).sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The step (s) for `remaining` (s) at step `dt` (s): the last two steps share what is left,
