@@ -57,6 +57,11 @@ impl Checker<'_> {
         Ok(())
     }
 
+    /// A time (s): finite, zero or later.
+    fn time(&self, field: &str, v: f64) -> Result<(), CaseError> {
+        self.require(v.is_finite() && v >= 0.0, field, v, "must be a time >= 0")
+    }
+
     /// A finite positive number.
     fn positive(&self, field: &str, v: f64) -> Result<(), CaseError> {
         self.require(v > 0.0 && v.is_finite(), field, v, "must be positive")
@@ -211,12 +216,7 @@ impl Case {
                 c.vector("validation.center", center)?;
                 c.positive("validation.radius", *radius)?;
                 finite("validation.omega", *omega)?;
-                c.require(
-                    from.is_finite() && *from >= 0.0,
-                    "validation.from",
-                    *from,
-                    "must be a time >= 0",
-                )
+                c.time("validation.from", *from)
             }
             Some(v @ ValidationSpec::SurfaceMode { .. }) => check_surface_mode(c, v),
             Some(ValidationSpec::SteadyFlow { tolerance }) => {
@@ -238,26 +238,7 @@ impl Case {
                 c.positive("validation.radius", *radius)?;
                 finite("validation.strain_rate", *strain_rate)
             }
-            Some(ValidationSpec::Laplace {
-                radius,
-                from,
-                tolerance,
-                ..
-            }) => {
-                if self.interfaces.len() != 1 {
-                    let n = self.interfaces.len().to_string();
-                    let msg = "the Laplace check needs exactly one [[interfaces]] entry";
-                    return c.fail("interfaces", n, msg);
-                }
-                c.positive("validation.radius", *radius)?;
-                c.positive("validation.tolerance", *tolerance)?;
-                c.require(
-                    from.is_finite() && *from >= 0.0,
-                    "validation.from",
-                    *from,
-                    "must be a time >= 0",
-                )
-            }
+            Some(v @ ValidationSpec::Laplace { .. }) => self.check_laplace(c, v),
             Some(ValidationSpec::ProbeReference {
                 rms_tolerance,
                 peak_tolerance,
@@ -284,6 +265,27 @@ impl Case {
                 c.positive("validation.peak_tolerance", *peak_tolerance)
             }
         }
+    }
+
+    /// The Laplace check's figures, and the one interface it compares with.
+    fn check_laplace(&self, c: &Checker, v: &ValidationSpec) -> Result<(), CaseError> {
+        let ValidationSpec::Laplace {
+            radius,
+            from,
+            tolerance: tol,
+            ..
+        } = *v
+        else {
+            return Ok(());
+        };
+        if self.interfaces.len() != 1 {
+            let n = self.interfaces.len().to_string();
+            let msg = "the Laplace check needs exactly one [[interfaces]] entry";
+            return c.fail("interfaces", n, msg);
+        }
+        c.positive("validation.radius", radius)?;
+        c.positive("validation.tolerance", tol)?;
+        c.time("validation.from", from)
     }
 
     fn check_domain_and_particles(&self, c: &Checker) -> Result<(), CaseError> {

@@ -396,6 +396,37 @@ fn dam_break_front<const D: usize>(
     Ok(result)
 }
 
+/// The Laplace check `v` of `case` in `dimension`: the two probes' means from `from` on.
+fn laplace<const D: usize>(
+    case: &Case,
+    rec: &Recorder<D>,
+    v: &ValidationSpec,
+    dimension: usize,
+) -> Option<ValidationResult> {
+    let ValidationSpec::Laplace {
+        inside,
+        outside,
+        radius,
+        from,
+        tolerance,
+    } = v
+    else {
+        return None;
+    };
+    let mean = |probe: &str| {
+        let series = &rec.probe_series[probe_index(case, probe)];
+        let sel: Vec<f64> = series
+            .iter()
+            .filter(|s| s.0 >= *from)
+            .map(|s| s.1)
+            .collect();
+        (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
+    };
+    let sigma = case.interfaces.first().map_or(0.0, |f| f.tension);
+    let (a, b) = (mean(inside)?, mean(outside)?);
+    Some(laplace_jump(a - b, sigma, *radius, dimension, *tolerance))
+}
+
 /// The case's validation against reference data (and the dam break's comparison file).
 fn validate<const D: usize>(
     sim: &Simulation<D>,
@@ -459,28 +490,7 @@ fn validate<const D: usize>(
             let u = rec.rim.as_ref().map_or(0.0, |r| r.initial_velocity);
             surface_mode(&rec.rim_series, u, (*omega, *mode), *until, *tolerance)
         }
-        Some(ValidationSpec::Laplace {
-            inside,
-            outside,
-            radius,
-            from,
-            tolerance,
-        }) => {
-            let mean = |probe: &str| {
-                let series = &rec.probe_series[probe_index(case, probe)];
-                let sel: Vec<f64> = series
-                    .iter()
-                    .filter(|s| s.0 >= *from)
-                    .map(|s| s.1)
-                    .collect();
-                (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
-            };
-            let sigma = case.interfaces.first().map_or(0.0, |f| f.tension);
-            match (mean(inside), mean(outside)) {
-                (Some(a), Some(b)) => Some(laplace_jump(a - b, sigma, *radius, D, *tolerance)),
-                _ => None,
-            }
-        }
+        Some(v @ ValidationSpec::Laplace { .. }) => laplace(case, rec, v, D),
         Some(ValidationSpec::SteadyFlow { tolerance }) => {
             steady_flow(steady_flow_sums(sim), *tolerance)
         }
