@@ -234,3 +234,30 @@ fn settling_and_surfacing_in_3d() {
         assert!(gc.breakdown.is_some(), "{case}: MPS-HS-GC ran to 0.2 s");
     }
 }
+
+/// The drop under interfacial tension in 3D (`laplace_drop_3d.toml`, R = 6.25 l0, sigma =
+/// 0.5 N/m, 0.3 s): the pressure jump against the Laplace law 2 sigma / R = 40 Pa within 6 %
+/// (a sphere's two principal curvatures from the same divergence of the normals).
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn a_drop_under_interfacial_tension_has_the_laplace_jump_in_3d() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+    let set = [("output.vtu".to_string(), "false".to_string())];
+    let case = mps::Case::from_file(&dir.join("laplace_drop_3d.toml"), &set).unwrap();
+    let mut s = mps::Simulation::<3>::new(case, "laplace_drop_3d").unwrap();
+    let summary = run(&mut s, &tmp("laplace_3d"), &mut Silent).unwrap();
+    assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
+    let v = &summary.validation[0];
+    eprintln!(
+        "3D drop: jump {:.2} Pa against {:.2} ({:+.2} %)",
+        v.value,
+        v.reference,
+        100.0 * v.error
+    );
+    assert!(
+        v.error.abs() < 0.06,
+        "jump {} against {}",
+        v.value,
+        v.reference
+    );
+}
