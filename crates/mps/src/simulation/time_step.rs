@@ -9,7 +9,8 @@ use crate::particles::{Kind, Particles};
 use rayon::prelude::*;
 
 /// The largest time step of a case (s): `time.dt_fixed`, `time.dt_max`, or
-/// `C sqrt(l0/g)` with gravity, `C l0/u0` with only an initial velocity `u0`.
+/// `C sqrt(l0/g)` with gravity, `C l0/u0` with only an initial velocity `u0`; unless fixed,
+/// at most the capillary limit of its interfaces.
 pub fn largest_time_step<const D: usize>(
     case: &Case,
     p: &Particles<D>,
@@ -19,11 +20,12 @@ pub fn largest_time_step<const D: usize>(
     let l0 = case.particles.spacing;
     let c = case.time.courant;
     let u0 = initial_speed(p);
+    let cap = capillary_time_step(case);
     match (case.time.dt_fixed, case.time.dt_max) {
         (Some(f), _) => Ok(f),
-        (None, Some(m)) => Ok(m),
-        (None, None) if g > 0.0 => Ok(c * (l0 / g).sqrt()),
-        (None, None) if u0 > 0.0 => Ok(c * l0 / u0),
+        (None, Some(m)) => Ok(m.min(cap)),
+        (None, None) if g > 0.0 => Ok((c * (l0 / g).sqrt()).min(cap)),
+        (None, None) if u0 > 0.0 => Ok((c * l0 / u0).min(cap)),
         _ => Err(CaseError::new(
             label,
             "time.dt_max",
@@ -80,7 +82,7 @@ impl<const D: usize> Simulation<D> {
             if nu > 0.0 {
                 dt = dt.min(0.1 * l0 * l0 / nu);
             }
-            dt.min(capillary_time_step(&self.case))
+            dt
         };
         if dt < self.case.breakdown.min_dt_ratio * self.dt_max {
             return Err(BreakdownReason::TimeStepCollapse { dt });
