@@ -170,7 +170,8 @@ impl<const D: usize> Simulation<D> {
         let gravity = Vector::from_slice(&case.physics.gravity).expect("validated");
         let g = gravity.norm();
         let dt_max = time_step::largest_time_step(&case, &particles, g, label)?;
-        let u_scale = time_step::velocity_scale(&particles, g, l0);
+        let u_scale =
+            time_step::velocity_scale(&particles, g, l0).max(time_step::capillary_speed(&case));
         let max_speed_bound = case.breakdown.max_speed.unwrap_or(if u_scale > 0.0 {
             SPEED_BOUND_FACTOR * u_scale
         } else {

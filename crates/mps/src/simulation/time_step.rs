@@ -109,6 +109,25 @@ pub fn capillary_time_step(case: &Case) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// The capillary speed of the case's interfaces at the particle scale (m/s),
+/// `sqrt(sigma / (rho_mean l0))`, the largest over its interfaces; 0 without interfaces.
+/// A velocity scale for the breakdown speed bound where gravity gives none.
+pub fn capillary_speed(case: &Case) -> f64 {
+    let l0 = case.particles.spacing;
+    case.interfaces
+        .iter()
+        .map(|f| {
+            let rho: f64 = case
+                .phases
+                .iter()
+                .filter(|p| f.phases.contains(&p.name))
+                .map(|p| 0.5 * p.density)
+                .sum();
+            (f.tension / (rho * l0)).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
 /// The step (s) for `remaining` (s) at step `dt` (s): the last two steps share what is left,
 /// so no sliver of a step kicks the particles (the drift term scales as `1/dt^2`;
 /// docs/decisions.md, "Last steps").
