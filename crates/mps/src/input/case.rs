@@ -234,9 +234,14 @@ pub struct SolverSpec {
     /// Which solver.
     #[serde(default = "default_solver")]
     pub kind: SolverKind,
-    /// Relative residual tolerance.
+    /// Relative residual tolerance (`|b - A p| / |b|`, dimensionless).
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
+    /// Volume tolerance (dimensionless): the solve also stops once the residual's volume
+    /// error over the step, `dt^2 RMS(b - A p)`, is below it; 0 turns it off
+    /// (docs/decisions.md, "PPE stopping rule").
+    #[serde(default = "default_volume_tolerance")]
+    pub volume_tolerance: f64,
     /// Iteration limit; not converging within it is a breakdown.
     #[serde(default = "default_max_iter")]
     pub max_iterations: usize,
@@ -247,6 +252,7 @@ impl Default for SolverSpec {
         SolverSpec {
             kind: default_solver(),
             tolerance: default_tolerance(),
+            volume_tolerance: default_volume_tolerance(),
             max_iterations: default_max_iter(),
         }
     }
@@ -257,6 +263,9 @@ fn default_solver() -> SolverKind {
 }
 fn default_tolerance() -> f64 {
     1e-8
+}
+fn default_volume_tolerance() -> f64 {
+    0.0
 }
 fn default_max_iter() -> usize {
     5000
@@ -1103,6 +1112,27 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         .unwrap_err();
         assert_eq!(e.field, "particles.spacing");
         assert_eq!(e.value, "-0.01");
+    }
+
+    /// The PPE's volume tolerance is a dimensionless fraction in [0, 1): 0 is off, a negative
+    /// or NaN value is named with the field and its value.
+    #[test]
+    fn a_bad_volume_tolerance_is_named() {
+        let set = |v: &str| [("solver.volume_tolerance".to_string(), v.to_string())];
+        let c = Case::from_str_named(MINIMAL, "t.toml", &set("1e-8")).unwrap();
+        assert_eq!(c.solver.volume_tolerance, 1e-8);
+        assert_eq!(
+            Case::from_str_named(MINIMAL, "t.toml", &[])
+                .unwrap()
+                .solver
+                .volume_tolerance,
+            0.0
+        );
+        for bad in ["-1e-8", "1.5", "nan"] {
+            let e = Case::from_str_named(MINIMAL, "t.toml", &set(bad)).unwrap_err();
+            assert_eq!(e.field, "solver.volume_tolerance", "{e}");
+            assert!(e.to_string().contains("t.toml"), "{e}");
+        }
     }
 
     #[test]

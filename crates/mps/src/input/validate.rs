@@ -362,6 +362,13 @@ impl Case {
             "solver.tolerance",
             tol,
             "must lie in (0, 1)",
+        )?;
+        let vol = self.solver.volume_tolerance;
+        c.require(
+            (0.0..1.0).contains(&vol),
+            "solver.volume_tolerance",
+            vol,
+            "must lie in [0, 1)",
         )
     }
 

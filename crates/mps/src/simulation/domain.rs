@@ -244,13 +244,15 @@ impl<const D: usize> Simulation<D> {
         self.sum(own as u64) as usize
     }
 
-    /// On several processes: the PPE solved across them (`None` on one process).
+    /// On several processes: the PPE solved across them to the relative residual `tol`
+    /// (`None` on one process).
     pub(super) fn solve_across(
         &mut self,
         sys: &PressureSystem,
         x: &mut [f64],
+        tol: f64,
     ) -> Option<Result<SolveStats, NotConverged>> {
-        let (tol, it) = (self.case.solver.tolerance, self.case.solver.max_iterations);
+        let it = self.case.solver.max_iterations;
         self.domain_mut().map(|d| d.solve(sys, x, tol, it))
     }
 }

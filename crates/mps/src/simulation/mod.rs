@@ -278,7 +278,7 @@ impl<const D: usize> Simulation<D> {
             s.assemble(&pred, &surf, &density, dt)
         });
         report.unknowns = self.own_unknowns(&sys);
-        let mut pressure = self.solve_pressure(sys, &mut report)?;
+        let mut pressure = self.solve_pressure(sys, dt, &mut report)?;
         self.refresh_scalars(&mut pressure);
         // 5. Boundary pressures, pressure acceleration, Dynamic Stabilization, shifting.
         let (acc, ds_acc, shifts) = self.timed(Stage::Gradient, |s| {

@@ -2,7 +2,7 @@
 //! state through a [`View`] and hands its result to the next as a typed value.
 
 use super::breakdown::{check_state, BreakdownReason, Failure};
-use super::pressure_solver::SolveReport;
+use super::pressure_solver::{stopping_tolerance, SolveReport};
 use super::{Simulation, Stage, StepReport};
 use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
@@ -307,14 +307,35 @@ impl<const D: usize> Simulation<D> {
         sys.rhs.iter_mut().for_each(|b| *b -= mean);
     }
 
-    /// Stage 4b: solves the PPE (warm start from the last pressures) and returns every
-    /// particle's pressure (Pa): the Dirichlet value (0 or the mean-surface one) for
-    /// Dirichlet and dummy particles, clamped if the scheme says so.
+    /// The relative residual the PPE of a step `dt` (s) is solved to: the case's
+    /// `solver.tolerance`, loosened by `solver.volume_tolerance` ([`stopping_tolerance`]),
+    /// from the right-hand side's norm over every process's own rows.
+    fn solve_tolerance(&mut self, sys: &PressureSystem, dt: f64) -> f64 {
+        let (tol, volume) = (
+            self.case.solver.tolerance,
+            self.case.solver.volume_tolerance,
+        );
+        if volume <= 0.0 {
+            return tol;
+        }
+        let owned = self.owned() as u32;
+        let own_rows = sys.particle_of.partition_point(|&i| i < owned);
+        let b = &sys.rhs[..own_rows];
+        let mut sums = [b.iter().map(|v| v * v).sum::<f64>(), own_rows as f64];
+        self.sum_over_processes(&mut sums);
+        stopping_tolerance(tol, volume, sums[0].sqrt(), sums[1], dt)
+    }
+
+    /// Stage 4b: solves the PPE of a step `dt` (s) (warm start from the last pressures) and
+    /// returns every particle's pressure (Pa): the Dirichlet value (0 or the mean-surface
+    /// one) for Dirichlet and dummy particles, clamped if the scheme says so.
     pub(super) fn solve_pressure(
         &mut self,
         sys: PressureSystem,
+        dt: f64,
         report: &mut StepReport,
     ) -> Result<Vec<f64>, Failure> {
+        let tol = self.solve_tolerance(&sys, dt);
         let p = &self.particles;
         let mut x: Vec<f64> = sys
             .particle_of
@@ -322,7 +343,7 @@ impl<const D: usize> Simulation<D> {
             .map(|&i| p.pressure[i as usize])
             .collect();
         let t = std::time::Instant::now();
-        let (result, solved) = match self.solve_across(&sys, &mut x) {
+        let (result, solved) = match self.solve_across(&sys, &mut x, tol) {
             Some(r) => {
                 let stats = r.unwrap_or_else(|e| e.stats);
                 let solve = t.elapsed();
@@ -335,7 +356,7 @@ impl<const D: usize> Simulation<D> {
                     },
                 )
             }
-            None => self.solver.solve(&sys, &mut x, &self.particles.id),
+            None => self.solver.solve(&sys, &mut x, &self.particles.id, tol),
         };
         self.timers.add(Stage::PpeSetup, solved.setup);
         self.timers.add(Stage::PpeSolve, solved.solve);
