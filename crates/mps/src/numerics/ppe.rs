@@ -172,45 +172,98 @@ fn sort_by_column(entries: &mut [(u32, f64)]) {
     }
 }
 
-/// The rows of `particle_of`, assembled in parallel chunks and joined in order into the
-/// matrix and right-hand side of `sys` (their memory reused).
+impl<const D: usize> Rows<'_, D> {
+    /// The number of entries of particle `i`'s row: its diagonal and one per neighbour that
+    /// [`Rows::assemble`] gives a column (a fluid or wall particle that is an unknown).
+    fn row_length(&self, i: usize) -> u32 {
+        let (v, row_of) = (self.v, self.row_of);
+        let off_diagonal = v
+            .pairs(i, self.k.lap.re)
+            .filter(|q| matches!(v.kind[q.j], Kind::Fluid | Kind::Wall) && row_of[q.j] != NONE)
+            .count();
+        1 + off_diagonal as u32
+    }
+}
+
+thread_local! {
+    /// A row's entries while it is assembled, kept per thread (no allocation per row or step).
+    static ENTRIES: std::cell::RefCell<Vec<(u32, f64)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Rows `first..first + rhs.len()` of `particle_of` written into their place: `col` and `val`
+/// hold exactly their entries (offsets from `row_ptr`), `rhs` their right-hand sides. Split
+/// in halves of whole chunks, in parallel.
+fn fill_rows<const D: usize>(
+    ctx: &Rows<D>,
+    particle_of: &[u32],
+    row_ptr: &[u32],
+    first: usize,
+    (col, val, rhs): (&mut [u32], &mut [f64], &mut [f64]),
+) {
+    let rows = rhs.len();
+    if rows > CHUNK {
+        let mid = rows.div_ceil(CHUNK) / 2 * CHUNK;
+        let at = (row_ptr[first + mid] - row_ptr[first]) as usize;
+        let (col_a, col_b) = col.split_at_mut(at);
+        let (val_a, val_b) = val.split_at_mut(at);
+        let (rhs_a, rhs_b) = rhs.split_at_mut(mid);
+        rayon::join(
+            || fill_rows(ctx, particle_of, row_ptr, first, (col_a, val_a, rhs_a)),
+            || {
+                fill_rows(
+                    ctx,
+                    particle_of,
+                    row_ptr,
+                    first + mid,
+                    (col_b, val_b, rhs_b),
+                )
+            },
+        );
+        return;
+    }
+    ENTRIES.with_borrow_mut(|entries| {
+        let base = row_ptr[first] as usize;
+        for (k, b) in rhs.iter_mut().enumerate() {
+            let row = first + k;
+            *b = ctx.assemble(particle_of[row] as usize, row as u32, entries);
+            let at = row_ptr[row] as usize - base;
+            debug_assert_eq!(entries.len(), (row_ptr[row + 1] - row_ptr[row]) as usize);
+            for (e, &(cj, x)) in entries.iter().enumerate() {
+                col[at + e] = cj;
+                val[at + e] = x;
+            }
+        }
+    });
+}
+
+/// The rows of `particle_of` assembled into the matrix and right-hand side of `sys`, in
+/// their memory: the row lengths first, then every row written into its place in parallel
+/// (no per-chunk copies, no allocation once the arrays have grown).
 fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32], sys: &mut PressureSystem) {
     let rows = particle_of.len();
-    // Per chunk of rows: (row lengths, columns, values, right-hand sides).
-    type Chunk = (Vec<u32>, Vec<u32>, Vec<f64>, Vec<f64>);
-    let parts: Vec<Chunk> = (0..rows.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(rows));
-            let mut lens = Vec::with_capacity(b - a);
-            let mut cols = Vec::with_capacity((b - a) * 30);
-            let mut vals = Vec::with_capacity((b - a) * 30);
-            let mut rhs = Vec::with_capacity(b - a);
-            let mut entries: Vec<(u32, f64)> = Vec::with_capacity(64);
-            for row in a..b {
-                let i = particle_of[row] as usize;
-                let bi = ctx.assemble(i, row as u32, &mut entries);
-                for &(cj, val) in &entries {
-                    cols.push(cj);
-                    vals.push(val);
-                }
-                lens.push(entries.len() as u32);
-                rhs.push(bi);
+    let m = &mut sys.matrix;
+    m.row_ptr.clear();
+    m.row_ptr.resize(rows + 1, 0);
+    m.row_ptr[1..]
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, lens)| {
+            for (k, len) in lens.iter_mut().enumerate() {
+                *len = ctx.row_length(particle_of[c * CHUNK + k] as usize);
             }
-            (lens, cols, vals, rhs)
-        })
-        .collect();
-    let (mut lens, mut cols, mut vals, mut rhs) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (l, c, v, r) in parts {
-        lens.push(l);
-        cols.push(c);
-        vals.push(v);
-        rhs.push(r);
+        });
+    for r in 0..rows {
+        m.row_ptr[r + 1] += m.row_ptr[r];
     }
-    crate::parallel::offsets_into(&lens, &mut sys.matrix.row_ptr);
-    crate::parallel::concat_into(&cols, &mut sys.matrix.col);
-    crate::parallel::concat_into(&vals, &mut sys.matrix.val);
-    crate::parallel::concat_into(&rhs, &mut sys.rhs);
+    let total = m.row_ptr[rows] as usize;
+    m.col.clear();
+    m.col.resize(total, 0);
+    m.val.clear();
+    m.val.resize(total, 0.0);
+    sys.rhs.clear();
+    sys.rhs.resize(rows, 0.0);
+    let parts = (&mut m.col[..], &mut m.val[..], &mut sys.rhs[..]);
+    fill_rows(ctx, particle_of, &m.row_ptr, 0, parts);
 }
 
 /// Assembles the PPE at the intermediate state; `previous` holds every particle's pressure
@@ -436,6 +489,64 @@ mod tests {
         let from_rest = solve(&assemble(&v, &zero, &k, &s, g, dt, &level));
         let ratio = from_rest[centre] / incompressible[centre];
         assert!(ratio > 0.0 && ratio < 0.99, "ratio {ratio}");
+    }
+
+    /// The matrix assembled in place (row lengths first, rows written into their slots in
+    /// parallel halves) is, row for row, what `Rows::assemble` gives each particle, on a
+    /// shaken block of 40 x 40 (seven row chunks) whose unknowns then change (the system's
+    /// memory reused for fewer and for more rows).
+    #[test]
+    fn rows_assembled_in_place_are_each_particles_row() {
+        let l0 = 0.01;
+        let m = 40;
+        let (mut pos, mut vel) = (Vec::new(), Vec::new());
+        for a in 0..m {
+            for b in 0..m {
+                let shake = 0.2 * l0 * ((a * 31 + b * 17) as f64).sin();
+                pos.push(Vector([a as f64 * l0 + shake, b as f64 * l0 - 0.5 * shake]));
+                vel.push(Vector([0.01 * (b as f64).cos(), -0.02 * (a as f64).sin()]));
+            }
+        }
+        let n = pos.len();
+        let k = Kernels::new::<2>(l0, 2.1, 3.1);
+        let mut cloud = Cloud::new(pos, vel, vec![1000.0; n], k.grad.n0, 3.4 * l0);
+        let s = Scheme::preset("MPS-HS-GC").unwrap();
+        let (g, dt) = (Vector([0.0, -9.81]), 1e-3);
+        let level = PressureReference {
+            position: None,
+            value: 0.0,
+            open_elsewhere: false,
+            at: None,
+        };
+        let mut sys = PressureSystem::default();
+        for edge in [0.015, 0.055, 0.005] {
+            let hi = (m - 1) as f64 * l0 - edge;
+            cloud.set_surface(|x| (0..2).any(|c| x[c] < edge || x[c] > hi));
+            let v = cloud.view();
+            let previous = vec![0.0; n];
+            assemble_into(&v, &previous, &k, &s, (g, dt), &level, &mut sys);
+            let ctx = Rows {
+                dirichlet: &[],
+                v: &v,
+                previous: &previous,
+                ghosts: s.air_ghosts,
+                row_of: &sys.row_of,
+                k: &k,
+                s: &s,
+                gravity: g,
+                dt,
+            };
+            assert!(sys.particle_of.len() > 3 * CHUNK);
+            let mut entries = Vec::new();
+            for (row, &i) in sys.particle_of.iter().enumerate() {
+                let b = ctx.assemble(i as usize, row as u32, &mut entries);
+                let (c, x) = sys.matrix.row(row);
+                let want: Vec<(u32, f64)> = c.iter().copied().zip(x.iter().copied()).collect();
+                assert_eq!(want, entries, "edge {edge}, row {row}");
+                assert_eq!(sys.rhs[row], b, "edge {edge}, row {row}");
+            }
+            assert_eq!(sys.matrix.row_ptr.len(), sys.particle_of.len() + 1);
+        }
     }
 
     /// The insertion sort orders a row as the library sort does, from any arrival order.

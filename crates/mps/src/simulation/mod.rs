@@ -7,6 +7,7 @@
 
 pub mod breakdown;
 pub mod domain;
+pub mod memory;
 pub mod pressure_solver;
 pub mod relax;
 mod stages;
@@ -154,6 +155,7 @@ fn interfaces_of(case: &Case) -> Interfaces {
 impl<const D: usize> Simulation<D> {
     /// Builds the particles of `case` and prepares the run; `label` names the case in errors.
     pub fn new(case: Case, label: &str) -> Result<Self, CaseError> {
+        memory::keep_freed_memory();
         if case.dimension != D {
             let msg = format!("a {D}D simulation cannot run this case");
             return Err(CaseError::new(
