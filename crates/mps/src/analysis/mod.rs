@@ -3,6 +3,7 @@
 //!
 //! Reads `simulation` and `particles`; never changes a simulation.
 
+pub mod added_mass;
 pub mod compare;
 pub mod exact;
 pub mod groups;

@@ -296,6 +296,27 @@ pub fn early_acceleration(
     ))
 }
 
+/// The same early acceleration against the ideal fluid's first acceleration of the groups in
+/// their tank (`analysis::added_mass`: walls, free surface and the other groups included),
+/// `exact` each group's vertical first acceleration (m/s^2); `measured` the mean of
+/// `|2 dy / t^2|` from [`early_acceleration`].
+pub fn early_acceleration_in_tank(measured: &ValidationResult, exact: &[f64]) -> ValidationResult {
+    let n = exact.len().max(1) as f64;
+    let reference = exact.iter().map(|a| a.abs()).sum::<f64>() / n;
+    ValidationResult::new(
+        "group_early_acceleration_tank",
+        measured.value,
+        reference,
+        (measured.value - reference) / reference,
+        measured.tolerance,
+        format!(
+            "the same against the ideal fluid's first acceleration in this tank (added-mass \
+             matrix by boundary elements; the unbounded estimate is {:.4})",
+            measured.reference
+        ),
+    )
+}
+
 /// A rotating disc to check: centre (m), radius (m), angular velocity (rad/s), density
 /// (kg/m^3).
 pub struct DiscSpec<const D: usize> {

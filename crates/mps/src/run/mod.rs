@@ -9,16 +9,18 @@
 
 pub mod recorder;
 
+use crate::analysis::added_mass::{first_accelerations, Disc};
 use crate::analysis::groups::group_states;
 use crate::analysis::metrics::Metrics;
 use crate::analysis::probes::{noise, smooth, SMOOTHING_WINDOW};
 use crate::analysis::validation::{
-    against_curve, curve_results, dam_break, early_acceleration, elliptic_drop, hydrostatic,
-    laplace_jump, rotating_disc, steady_flow, surface_mode, DiscSpec, ValidationResult,
+    against_curve, curve_results, dam_break, early_acceleration, early_acceleration_in_tank,
+    elliptic_drop, hydrostatic, laplace_jump, rotating_disc, steady_flow, surface_mode, DiscSpec,
+    ValidationResult,
 };
 use crate::analysis::{GroupSummary, RunSummary};
 use crate::error::{IoContext, Result};
-use crate::input::case::{Case, ValidationSpec};
+use crate::input::case::{Case, ShapeSpec, ValidationSpec};
 use crate::input::reference::ReferenceFile;
 use crate::input::setup::velocity_at;
 use crate::io::checkpoint::agree;
@@ -456,7 +458,14 @@ fn validate<const D: usize>(
             let densities: Vec<f64> = (0..rec.group_names.len())
                 .map(|k| group_density(sim, k).unwrap_or(rho_w))
                 .collect();
-            early_acceleration(&rec.group_series, *early_time, &densities, (rho_w, g), D)
+            let Some(r) =
+                early_acceleration(&rec.group_series, *early_time, &densities, (rho_w, g), D)
+            else {
+                return Ok(Vec::new());
+            };
+            let tank = tank_accelerations(case, &densities, rho_w, g);
+            let in_tank = tank.map(|a| early_acceleration_in_tank(&r, &a));
+            return Ok(std::iter::once(r).chain(in_tank).collect());
         }
         Some(ValidationSpec::RotatingDisc {
             center,
@@ -643,6 +652,36 @@ fn group_density<const D: usize>(sim: &Simulation<D>, k: usize) -> Option<f64> {
     }
     let all = sim.gather_over_processes(&[own.unwrap_or(f64::NAN)]);
     all.into_iter().find(|d| !d.is_nan())
+}
+
+/// The groups' first vertical accelerations (m/s^2) in the ideal fluid of their tank
+/// (`analysis::added_mass`), where the case is one: 2D, the first fluid region a rectangle
+/// (the tank's water, walls below and beside it, its top the free surface) and every group
+/// one circle inside it; `densities` each group's (kg/m^3), `rho_w` the water's.
+fn tank_accelerations(case: &Case, densities: &[f64], rho_w: f64, g: f64) -> Option<Vec<f64>> {
+    let ShapeSpec::Rectangle { min, max } = &case.fluid.first()?.shape else {
+        return None;
+    };
+    let corner = |v: &[f64]| (v.len() == 2).then(|| [v[0], v[1]]);
+    let tank = (corner(min)?, corner(max)?);
+    let names = crate::input::setup::group_names(case);
+    let mut discs = Vec::with_capacity(names.len());
+    for (name, &density) in names.iter().zip(densities) {
+        let mut regions = case.fluid.iter().filter(|f| f.group.as_ref() == Some(name));
+        let (Some(f), None) = (regions.next(), regions.next()) else {
+            return None;
+        };
+        let ShapeSpec::Circle { center, radius } = &f.shape else {
+            return None;
+        };
+        discs.push(Disc {
+            center: corner(center)?,
+            radius: *radius,
+            density,
+        });
+    }
+    let a = first_accelerations(tank, &discs, rho_w, g)?;
+    Some(a.iter().map(|a| a[1]).collect())
 }
 
 /// Each group's arrival time (heavier groups at the bottom, lighter ones at the free
