@@ -5,6 +5,7 @@ use crate::error::CaseError;
 use crate::numerics::collision::Collision;
 use crate::numerics::density::DensityAverage;
 use crate::numerics::gradient::{GradientDensity, GradientModel};
+use crate::numerics::interface_repulsion::InterfaceRepulsion;
 use crate::numerics::scheme::{Preset, Scheme, PRESETS};
 use crate::numerics::shifting::ParticleShifting;
 use crate::numerics::source::{DriftControl, HsNormalization, SourceModel};
@@ -57,7 +58,7 @@ pub struct CollisionSpec {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SchemeSpec {
-    /// Preset: `MPS`, `CMPS-HS`, `MPS-HS-GC` or `MPS-HS-GC-DS`.
+    /// Preset: `MPS`, `CMPS-HS`, `MPS-HS-GC`, `MPS-HS-GC-DS` or `MPS-HS-GC-DS-IR` (beyond the paper).
     #[serde(default = "default_scheme_name")]
     pub name: String,
     /// Pressure-gradient model override.
@@ -117,6 +118,9 @@ pub struct SchemeSpec {
     /// Particle shifting (beyond the paper).
     #[serde(default)]
     pub shifting: ShiftingSpec,
+    /// Background pressure (Pa) of the repulsion between unlike fluid particles (beyond the
+    /// paper: `numerics::interface_repulsion`; default the preset's, 0 for none).
+    pub interface_repulsion: Option<f64>,
 }
 
 impl Default for SchemeSpec {
@@ -340,6 +344,11 @@ impl SchemeSpec {
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;
         s.shifting = self.shifting(label)?;
+        if let Some(p) = self.interface_repulsion {
+            let ok = p >= 0.0 && p.is_finite();
+            let pressure = check(label, "interface_repulsion", p, ok, "[0, inf)")?;
+            s.interface_repulsion = (pressure > 0.0).then_some(InterfaceRepulsion { pressure });
+        }
         let g = &mut s.gradient;
         g.model = self.gradient.unwrap_or(g.model);
         g.correction = self.gradient_correction.unwrap_or(g.correction);

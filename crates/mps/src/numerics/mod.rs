@@ -10,6 +10,7 @@
 pub mod collision;
 pub mod density;
 pub mod gradient;
+pub mod interface_repulsion;
 pub mod interfacial_tension;
 pub mod kernel;
 pub mod operators;

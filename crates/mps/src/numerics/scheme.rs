@@ -1,10 +1,12 @@
-//! Numerical schemes as data: one plain struct of every choice the step reads, and the
-//! paper's four named presets (equations.md section 8). Overrides from a case file are
+//! Numerical schemes as data: one plain struct of every choice the step reads, the paper's
+//! four named presets (equations.md section 8) and one beyond the paper (the DS preset with
+//! the interface repulsion of `numerics::interface_repulsion`). Overrides from a case file are
 //! applied by `input::scheme_spec`.
 
 use super::collision::Collision;
 use super::density::DensityAverage;
 use super::gradient::{GradientDensity, GradientModel, PressureGradient};
+use super::interface_repulsion::InterfaceRepulsion;
 use super::shifting::ParticleShifting;
 use super::source::{DriftControl, HsNormalization, PpeSource, SourceModel};
 use super::stabilization::{DsWeighting, DynamicStabilization};
@@ -50,6 +52,8 @@ pub struct Scheme {
     pub ds: Option<DynamicStabilization>,
     /// Particle shifting, if on (beyond the paper; off in every preset).
     pub shifting: Option<ParticleShifting>,
+    /// Repulsion between unlike fluid particles, if on (beyond the paper).
+    pub interface_repulsion: Option<InterfaceRepulsion>,
 }
 
 /// One of the paper's named schemes: the choices that distinguish it (equations.md s.8).
@@ -69,10 +73,12 @@ pub struct Preset {
     pub collision: bool,
     /// Clamp negative pressure.
     pub clamp_negative_pressure: bool,
+    /// Background pressure of the repulsion between unlike fluid particles (Pa; 0: none).
+    pub interface_repulsion: f64,
 }
 
-/// The paper's presets (equations.md section 8).
-pub const PRESETS: [Preset; 4] = [
+/// The paper's presets (equations.md section 8), then the one beyond the paper.
+pub const PRESETS: [Preset; 5] = [
     Preset {
         name: "MPS",
         gradient: GradientModel::Original,
@@ -81,6 +87,7 @@ pub const PRESETS: [Preset; 4] = [
         ds: false,
         collision: true,
         clamp_negative_pressure: true,
+        interface_repulsion: 0.0,
     },
     Preset {
         name: "CMPS-HS",
@@ -90,6 +97,7 @@ pub const PRESETS: [Preset; 4] = [
         ds: false,
         collision: false,
         clamp_negative_pressure: false,
+        interface_repulsion: 0.0,
     },
     Preset {
         name: "MPS-HS-GC",
@@ -99,6 +107,7 @@ pub const PRESETS: [Preset; 4] = [
         ds: false,
         collision: false,
         clamp_negative_pressure: false,
+        interface_repulsion: 0.0,
     },
     Preset {
         name: "MPS-HS-GC-DS",
@@ -108,6 +117,21 @@ pub const PRESETS: [Preset; 4] = [
         ds: true,
         collision: false,
         clamp_negative_pressure: false,
+        interface_repulsion: 0.0,
+    },
+    // Beyond the paper: MPS-HS-GC-DS with a repulsion between unlike fluid particles, which
+    // keeps two immiscible fluids from mixing particle by particle at the paper's Courant
+    // 0.1 and alpha_DS 0.9 (docs/decisions.md, "Interface repulsion against two-phase
+    // mixing").
+    Preset {
+        name: "MPS-HS-GC-DS-IR",
+        gradient: GradientModel::Taylor,
+        gradient_correction: true,
+        source: SourceModel::Hs,
+        ds: true,
+        collision: false,
+        clamp_negative_pressure: false,
+        interface_repulsion: defaults::INTERFACE_REPULSION,
     },
 ];
 
@@ -126,6 +150,10 @@ pub mod defaults {
     pub const COLLISION_RESTITUTION: f64 = 0.2;
     /// DS threshold `alpha_DS` with a fixed time step (paper Eq. 9 at Courant 0.1).
     pub const DS_ALPHA: f64 = 0.9;
+    /// Interface repulsion of `MPS-HS-GC-DS-IR` (Pa) unless the case sets its own: about
+    /// `rho U^2` of the flow along the interface (docs/decisions.md, "Interface repulsion
+    /// against two-phase mixing": the settling tank takes 100, the surfacing tank 20).
+    pub const INTERFACE_REPULSION: f64 = 50.0;
 }
 
 impl Preset {
@@ -192,6 +220,9 @@ impl Preset {
                 walls: true,
             }),
             shifting: None,
+            interface_repulsion: (self.interface_repulsion > 0.0).then_some(InterfaceRepulsion {
+                pressure: self.interface_repulsion,
+            }),
         }
     }
 }
@@ -238,6 +269,17 @@ mod tests {
         assert!(d.gradient.correction && d.ds.is_some() && d.collision.is_none());
         assert_eq!(d.source.drift, DriftControl::Gamma);
         assert_eq!(d.ds.unwrap().alpha, 0.9);
+        assert!(PRESETS[..4]
+            .iter()
+            .all(|p| p.scheme().interface_repulsion.is_none()));
+        let ir = Scheme::preset("MPS-HS-GC-DS-IR").unwrap();
+        let plain = Scheme {
+            name: d.name.clone(),
+            interface_repulsion: None,
+            ..ir.clone()
+        };
+        assert_eq!(plain, d, "the DS preset and the repulsion, nothing else");
+        assert!(ir.interface_repulsion.unwrap().pressure > 0.0);
         assert!(Scheme::preset("SPH").is_none());
     }
 }

@@ -7,6 +7,7 @@ use super::{Simulation, Stage, StepReport};
 use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
+use crate::numerics::interface_repulsion::interface_repulsion;
 use crate::numerics::interfacial_tension::{surface_force, TensionInput};
 use crate::numerics::operators::{laplacian_vector, number_density};
 use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
@@ -83,14 +84,15 @@ impl<const D: usize> Simulation<D> {
         self.neighbors = self.neighbors_at(&self.particles.position);
     }
 
-    /// Stage 2: `u* = u + dt (nu lap u + g + a_tension)`, `r* = r + dt u*` for fluid
-    /// particles (`a_tension` from `numerics::interfacial_tension` where the case has
-    /// interfaces).
+    /// Stage 2: `u* = u + dt (nu lap u + g + a_tension + a_repulsion)`, `r* = r + dt u*` for
+    /// fluid particles (`a_tension` from `numerics::interfacial_tension` where the case has
+    /// interfaces, `a_repulsion` from `numerics::interface_repulsion` where the scheme has it).
     pub(super) fn predict(&self, dt: f64) -> Predicted<D> {
         let p = &self.particles;
         let k = &self.kernels.lap;
         let g = self.gravity;
         let tension = self.surface_tension();
+        let at_r = self.view_of(&p.position, &p.velocity, None, None);
         let (vel, pos) = (0..p.len())
             .into_par_iter()
             .map(|i| {
@@ -104,6 +106,9 @@ impl<const D: usize> Simulation<D> {
                 }
                 if let Some(t) = &tension {
                     a += t[i];
+                }
+                if let Some(r) = &self.scheme.interface_repulsion {
+                    a += interface_repulsion(i, &at_r, &p.phase, &self.kernels, r);
                 }
                 let u = p.velocity[i] + a * dt;
                 (u, p.position[i] + u * dt)
