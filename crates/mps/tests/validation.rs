@@ -219,14 +219,16 @@ fn taylor_green_cell_keeps_its_exact_field_with_particle_shifting() {
     );
 }
 
-/// Settling groups (2650 in water) with MPS-HS-GC-DS at the paper's resolution (l0 = 2.5 mm,
-/// 7000 fluid particles, Courant 0.03 so alpha_DS = 0.97 by paper Eq. 9), issue 4: no
-/// breakdown; the mean group centroid within 0.03 m of the bottom already at t = 1 s (the
-/// issue asks by 2 s; the shorter run saves CI time and is the stricter test); stray fraction
-/// below 0.12 at 0.5 s; the centroids' early acceleration (first 0.05 s) within 30 % of
-/// g (rho_g - rho_w)/(rho_g + rho_w) = 4.43 m/s^2. Surfacing groups (600 in water) to 2 s:
-/// the mean centroid within 0.03 m of the free surface, early acceleration within 30 % of
-/// 2.45 m/s^2.
+/// Settling groups (2650 in water) and surfacing groups (600 in water) at the paper's
+/// resolution (l0 = 2.5 mm, 7000 fluid particles) and step (Courant 0.1, so alpha_DS = 0.9 by
+/// paper Eq. 9), under MPS-HS-GC-DS-IR (beyond the paper: the DS preset with the interface
+/// repulsion), issue 12: no breakdown; stray fraction (group particles with no same-phase
+/// neighbour) below 0.05 at 0.5 s and below 0.10 at 1 s; the early acceleration (first
+/// 0.05 s) within 15 % of the ideal fluid's first acceleration in the tank (walls, free
+/// surface and the other groups included: 4.230 / 2.156 m/s^2) and within 30 % of the
+/// unbounded estimate g |rho_g - rho_w| / (rho_g + rho_w) (4.43 / 2.45 m/s^2); settling: the
+/// mean group centroid within 0.03 m of the bottom already at t = 1 s (the issue asks by
+/// 2 s); surfacing, to 2 s: the mean centroid within 0.03 m of the free surface.
 #[test]
 #[ignore = "validation run (release mode): cargo test --release -- --ignored"]
 fn settling_and_surfacing_groups() {
@@ -241,42 +243,58 @@ fn settling_and_surfacing_groups() {
         );
         let n = summary.groups.len() as f64;
         let mean_y = summary.groups.iter().map(|g| g.centroid.1 .1).sum::<f64>() / n;
-        let acc = summary
-            .validation
-            .iter()
-            .find(|v| v.name == "group_early_acceleration")
-            .unwrap();
+        let named = |name: &str| {
+            summary
+                .validation
+                .iter()
+                .find(|v| v.name == name)
+                .unwrap_or_else(|| panic!("{case}: no {name}"))
+        };
+        let (acc, tank) = (
+            named("group_early_acceleration"),
+            named("group_early_acceleration_tank"),
+        );
         eprintln!(
-            "{case} to {end} s: mean centroid y {mean_y:.4} m, early acceleration {:.2} vs {:.2} m/s^2 ({:+.1} %), arrivals {:?}",
+            "{case} to {end} s: mean centroid y {mean_y:.4} m, early acceleration {:.2} m/s^2 \
+             against {:.2} unbounded ({:+.1} %) and {:.3} in the tank ({:+.1} %), arrivals {:?}",
             acc.value,
             acc.reference,
             100.0 * acc.error,
-            summary.groups.iter().map(|g| g.arrival_time).collect::<Vec<_>>()
+            tank.reference,
+            100.0 * tank.error,
+            summary
+                .groups
+                .iter()
+                .map(|g| g.arrival_time)
+                .collect::<Vec<_>>()
         );
         assert!(
             acc.error.abs() < 0.3,
-            "{case}: early acceleration off by {}",
+            "{case}: early acceleration off the unbounded estimate by {}",
             acc.error
         );
+        assert!(
+            tank.error.abs() < 0.15,
+            "{case}: early acceleration off the tank's by {}",
+            tank.error
+        );
+        let groups = dir.join("groups.csv");
+        let (time, stray) = (column(&groups, "time"), column(&groups, "stray_fraction"));
+        let at = |t: f64| {
+            let k = (0..time.len())
+                .min_by(|&a, &b| (time[a] - t).abs().total_cmp(&(time[b] - t).abs()))
+                .unwrap();
+            stray[k]
+        };
+        let (s05, s10) = (at(0.5), at(1.0));
+        eprintln!("{case} stray fraction: {s05:.3} at 0.5 s, {s10:.3} at 1 s");
+        assert!(s05 < 0.05, "{case}: stray fraction {s05} at 0.5 s");
+        assert!(s10 < 0.10, "{case}: stray fraction {s10} at 1 s");
         if case == "settling" {
             assert!(
                 mean_y < 0.03,
                 "settling: mean centroid at {mean_y} m above the bottom"
             );
-            // Group coherence: the fraction of group particles with no same-phase neighbour
-            // at t = 0.5 s. Measured 0.07 with DS at alpha_DS = 1 - Courant = 0.97; with
-            // Courant 0.1 and alpha_DS = 0.9 it was 0.26.
-            let groups = dir.join("groups.csv");
-            let (time, stray) = (column(&groups, "time"), column(&groups, "stray_fraction"));
-            let at = |t: f64| {
-                let k = (0..time.len())
-                    .min_by(|&a, &b| (time[a] - t).abs().total_cmp(&(time[b] - t).abs()))
-                    .unwrap();
-                stray[k]
-            };
-            let (s05, s10) = (at(0.5), at(1.0));
-            eprintln!("settling stray fraction: {s05:.3} at 0.5 s, {s10:.3} at 1 s");
-            assert!(s05 < 0.12, "settling: stray fraction {s05} at 0.5 s");
         } else {
             let below = 0.175 - mean_y;
             assert!(

@@ -42,6 +42,16 @@ pub struct ShiftingSpec {
     pub max_shift: Option<f64>,
 }
 
+/// Interface repulsion options (beyond the paper: `numerics::interface_repulsion`).
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterfaceRepulsionSpec {
+    /// Switch it on or off (default: from the preset, on only in `MPS-HS-GC-DS-IR`).
+    pub enabled: Option<bool>,
+    /// Background pressure `P` across unlike pairs (Pa; default 50).
+    pub pressure: Option<f64>,
+}
+
 /// Collision model options (equations.md section 5, step 2).
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -118,9 +128,10 @@ pub struct SchemeSpec {
     /// Particle shifting (beyond the paper).
     #[serde(default)]
     pub shifting: ShiftingSpec,
-    /// Background pressure (Pa) of the repulsion between unlike fluid particles (beyond the
-    /// paper: `numerics::interface_repulsion`; default the preset's, 0 for none).
-    pub interface_repulsion: Option<f64>,
+    /// Repulsion between unlike fluid particles (beyond the paper:
+    /// `numerics::interface_repulsion`).
+    #[serde(default)]
+    pub interface_repulsion: InterfaceRepulsionSpec,
 }
 
 impl Default for SchemeSpec {
@@ -252,6 +263,26 @@ impl SchemeSpec {
         }))
     }
 
+    /// Interface repulsion: as the preset has it unless switched, with a checked pressure.
+    fn interface_repulsion(
+        &self,
+        preset: &Preset,
+        label: &str,
+    ) -> Result<Option<InterfaceRepulsion>, CaseError> {
+        let s = &self.interface_repulsion;
+        if !s.enabled.unwrap_or(preset.interface_repulsion > 0.0) {
+            return Ok(None);
+        }
+        let p = s
+            .pressure
+            .unwrap_or(crate::numerics::scheme::defaults::INTERFACE_REPULSION);
+        let ok = p > 0.0 && p.is_finite();
+        let field = "interface_repulsion.pressure";
+        Ok(Some(InterfaceRepulsion {
+            pressure: check(label, field, p, ok, "(0, inf)")?,
+        }))
+    }
+
     /// Particle shifting: off unless switched on, with checked parameters.
     fn shifting(&self, label: &str) -> Result<Option<ParticleShifting>, CaseError> {
         let s = &self.shifting;
@@ -344,11 +375,7 @@ impl SchemeSpec {
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;
         s.shifting = self.shifting(label)?;
-        if let Some(p) = self.interface_repulsion {
-            let ok = p >= 0.0 && p.is_finite();
-            let pressure = check(label, "interface_repulsion", p, ok, "[0, inf)")?;
-            s.interface_repulsion = (pressure > 0.0).then_some(InterfaceRepulsion { pressure });
-        }
+        s.interface_repulsion = self.interface_repulsion(preset, label)?;
         let g = &mut s.gradient;
         g.model = self.gradient.unwrap_or(g.model);
         g.correction = self.gradient_correction.unwrap_or(g.correction);
@@ -454,5 +481,28 @@ mod tests {
         let mut s = spec("MPS-HS-GC-DS");
         s.surface = Some(toml::from_str("detector = \"distribution\"").unwrap());
         assert_eq!(s.resolve(None, "t").unwrap().surface.name(), "distribution");
+    }
+
+    /// The repulsion's pressure applies where the preset has it (so `mps compare` runs the
+    /// paper's presets without it from the same case) or where it is switched on.
+    #[test]
+    fn the_interface_repulsion_follows_the_preset_unless_switched() {
+        let pressure = |s: &SchemeSpec| {
+            s.resolve(Some(0.1), "t")
+                .unwrap()
+                .interface_repulsion
+                .map(|r| r.pressure)
+        };
+        let mut s = spec("MPS-HS-GC-DS-IR");
+        assert_eq!(pressure(&s), Some(50.0));
+        s.interface_repulsion.pressure = Some(100.0);
+        assert_eq!(pressure(&s), Some(100.0));
+        s.name = "MPS-HS-GC-DS".into();
+        assert_eq!(pressure(&s), None);
+        s.interface_repulsion.enabled = Some(true);
+        assert_eq!(pressure(&s), Some(100.0));
+        s.interface_repulsion.pressure = Some(-1.0);
+        let e = s.resolve(None, "t").unwrap_err();
+        assert_eq!(e.field, "scheme.interface_repulsion.pressure");
     }
 }
