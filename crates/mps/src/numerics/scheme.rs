@@ -77,6 +77,18 @@ pub struct Preset {
     pub interface_repulsion: f64,
 }
 
+/// The paper's DS scheme, MPS-HS-GC-DS (equations.md section 8).
+const DS_PRESET: Preset = Preset {
+    name: "MPS-HS-GC-DS",
+    gradient: GradientModel::Taylor,
+    gradient_correction: true,
+    source: SourceModel::Hs,
+    ds: true,
+    collision: false,
+    clamp_negative_pressure: false,
+    interface_repulsion: 0.0,
+};
+
 /// The paper's presets (equations.md section 8), then the one beyond the paper.
 pub const PRESETS: [Preset; 5] = [
     Preset {
@@ -109,29 +121,15 @@ pub const PRESETS: [Preset; 5] = [
         clamp_negative_pressure: false,
         interface_repulsion: 0.0,
     },
-    Preset {
-        name: "MPS-HS-GC-DS",
-        gradient: GradientModel::Taylor,
-        gradient_correction: true,
-        source: SourceModel::Hs,
-        ds: true,
-        collision: false,
-        clamp_negative_pressure: false,
-        interface_repulsion: 0.0,
-    },
+    DS_PRESET,
     // Beyond the paper: MPS-HS-GC-DS with a repulsion between unlike fluid particles, which
     // keeps two immiscible fluids from mixing particle by particle at the paper's Courant
     // 0.1 and alpha_DS 0.9 (docs/decisions.md, "Interface repulsion against two-phase
     // mixing").
     Preset {
         name: "MPS-HS-GC-DS-IR",
-        gradient: GradientModel::Taylor,
-        gradient_correction: true,
-        source: SourceModel::Hs,
-        ds: true,
-        collision: false,
-        clamp_negative_pressure: false,
         interface_repulsion: defaults::INTERFACE_REPULSION,
+        ..DS_PRESET
     },
 ];
 
