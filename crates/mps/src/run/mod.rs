@@ -455,17 +455,7 @@ fn validate<const D: usize>(
             r.map(|r| r.with_tolerance(*tolerance))
         }
         Some(ValidationSpec::Groups { early_time, .. }) => {
-            let densities: Vec<f64> = (0..rec.group_names.len())
-                .map(|k| group_density(sim, k).unwrap_or(rho_w))
-                .collect();
-            let Some(r) =
-                early_acceleration(&rec.group_series, *early_time, &densities, (rho_w, g), D)
-            else {
-                return Ok(Vec::new());
-            };
-            let tank = tank_accelerations(case, &densities, rho_w, g);
-            let in_tank = tank.map(|a| early_acceleration_in_tank(&r, &a));
-            return Ok(std::iter::once(r).chain(in_tank).collect());
+            return Ok(groups(sim, rec, *early_time));
         }
         Some(ValidationSpec::RotatingDisc {
             center,
@@ -652,6 +642,27 @@ fn group_density<const D: usize>(sim: &Simulation<D>, k: usize) -> Option<f64> {
     }
     let all = sim.gather_over_processes(&[own.unwrap_or(f64::NAN)]);
     all.into_iter().find(|d| !d.is_nan())
+}
+
+/// The groups' early acceleration over the first `early_time` (s) against the unbounded
+/// estimate and, where the case is a tank of circles, the tank's ideal-fluid value.
+fn groups<const D: usize>(
+    sim: &Simulation<D>,
+    rec: &Recorder<D>,
+    early_time: f64,
+) -> Vec<ValidationResult> {
+    let (case, g) = (&sim.case, sim.gravity.norm());
+    let rho_w = case.phases[0].density;
+    let densities: Vec<f64> = (0..rec.group_names.len())
+        .map(|k| group_density(sim, k).unwrap_or(rho_w))
+        .collect();
+    let series = &rec.group_series;
+    let Some(r) = early_acceleration(series, early_time, &densities, (rho_w, g), D) else {
+        return Vec::new();
+    };
+    let tank = tank_accelerations(case, &densities, rho_w, g);
+    let in_tank = tank.map(|a| early_acceleration_in_tank(&r, &a));
+    std::iter::once(r).chain(in_tank).collect()
 }
 
 /// The groups' first vertical accelerations (m/s^2) in the ideal fluid of their tank
