@@ -23,7 +23,7 @@
 //! aggregation, and the parameters: docs/decisions.md, "AMG parameters".
 
 use super::pcg::Precondition;
-use super::sparse::{spgemm, transpose, CsrMatrix};
+use super::sparse::{build_rows_into, spgemm, transpose, CsrMatrix};
 use rayon::prelude::*;
 use std::sync::Mutex;
 
@@ -566,56 +566,36 @@ impl Level {
 /// each row keeps its sum; the test is symmetric, so a symmetric `a` gives a symmetric
 /// result. Rows must hold their diagonal.
 fn without_weak_into(a: &CsrMatrix, drop: f64, out: &mut CsrMatrix) {
-    const ROWS: usize = 1024;
     let d = a.diagonal();
     let d2 = drop * drop;
-    let n = a.n();
-    // Per chunk of rows: (row lengths, columns, values).
-    let parts: Vec<(Vec<u32>, Vec<u32>, Vec<f64>)> = (0..n.div_ceil(ROWS))
-        .into_par_iter()
-        .map(|c| {
-            let (lo, hi) = (c * ROWS, ((c + 1) * ROWS).min(n));
-            let span = (a.row_ptr[hi] - a.row_ptr[lo]) as usize;
-            let (mut lens, mut cols, mut vals) = (
-                Vec::with_capacity(hi - lo),
-                Vec::with_capacity(span / 2),
-                Vec::with_capacity(span / 2),
-            );
-            for i in lo..hi {
-                let (c, v) = a.row(i);
-                let (start, mut diag_at, mut dropped) = (cols.len(), usize::MAX, 0.0);
-                for (&j, &x) in c.iter().zip(v) {
-                    let j = j as usize;
-                    if j == i {
-                        diag_at = vals.len();
-                    } else if x * x < d2 * d[i] * d[j] {
-                        dropped += x;
-                        continue;
-                    }
-                    cols.push(j as u32);
-                    vals.push(x);
-                }
-                if diag_at != usize::MAX {
-                    vals[diag_at] += dropped;
-                }
-                lens.push((cols.len() - start) as u32);
+    let kept = |i: usize, j: usize, x: f64| j == i || !(x * x < d2 * d[i] * d[j]);
+    let len = |_: &mut (), i: usize| {
+        let (c, v) = a.row(i);
+        c.iter()
+            .zip(v)
+            .filter(|(&j, &x)| kept(i, j as usize, x))
+            .count() as u32
+    };
+    let fill = |_: &mut (), i: usize, cols: &mut [u32], vals: &mut [f64]| {
+        let (c, v) = a.row(i);
+        let (mut at, mut diag_at, mut dropped) = (0, usize::MAX, 0.0);
+        for (&j, &x) in c.iter().zip(v) {
+            if !kept(i, j as usize, x) {
+                dropped += x;
+                continue;
             }
-            (lens, cols, vals)
-        })
-        .collect();
-    out.row_ptr.clear();
-    out.row_ptr.push(0);
-    let mut at = 0u32;
-    for (lens, _, _) in &parts {
-        for l in lens {
-            at += l;
-            out.row_ptr.push(at);
+            if j as usize == i {
+                diag_at = at;
+            }
+            cols[at] = j;
+            vals[at] = x;
+            at += 1;
         }
-    }
-    let (cols, vals): (Vec<Vec<u32>>, Vec<Vec<f64>>) =
-        parts.into_iter().map(|(_, c, v)| (c, v)).unzip();
-    crate::parallel::concat_into(&cols, &mut out.col);
-    crate::parallel::concat_into(&vals, &mut out.val);
+        if diag_at != usize::MAX {
+            vals[diag_at] += dropped;
+        }
+    };
+    build_rows_into(a.n(), out, || (), len, fill);
 }
 
 /// `res = b - A x`.

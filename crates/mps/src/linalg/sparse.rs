@@ -123,46 +123,118 @@ pub fn transpose(a: &CsrMatrix, ncols: usize) -> CsrMatrix {
     CsrMatrix { row_ptr, col, val }
 }
 
-/// Sparse product `A B` of CSR matrices, `B` with `ncols` columns; parallel over rows of
-/// `A`, each row accumulated in a dense scratch row (Gustavson's algorithm).
-pub fn spgemm(a: &CsrMatrix, b: &CsrMatrix, ncols: usize) -> CsrMatrix {
-    let rows: Vec<(Vec<u32>, Vec<f64>)> = (0..a.n())
-        .into_par_iter()
-        .map_init(
-            || (vec![u32::MAX; ncols], vec![0.0f64; ncols]),
-            |(mark, acc), i| {
-                let mut cols: Vec<u32> = Vec::new();
-                let (ca, va) = a.row(i);
-                for (&k, &x) in ca.iter().zip(va) {
-                    let (cb, vb) = b.row(k as usize);
-                    for (&j, &y) in cb.iter().zip(vb) {
-                        let j = j as usize;
-                        if mark[j] != i as u32 {
-                            mark[j] = i as u32;
-                            acc[j] = 0.0;
-                            cols.push(j as u32);
-                        }
-                        acc[j] += x * y;
-                    }
-                }
-                cols.sort_unstable();
-                let vals = cols.iter().map(|&j| acc[j as usize]).collect();
-                (cols, vals)
-            },
-        )
-        .collect();
-    let mut out = CsrMatrix {
-        row_ptr: Vec::with_capacity(a.n() + 1),
-        col: Vec::with_capacity(rows.iter().map(|r| r.0.len()).sum()),
-        val: Vec::new(),
-    };
-    out.val.reserve(out.col.capacity());
-    out.row_ptr.push(0);
-    for (c, v) in rows {
-        out.col.extend_from_slice(&c);
-        out.val.extend_from_slice(&v);
-        out.row_ptr.push(out.col.len() as u32);
+/// Rows per piece of a matrix built in place ([`build_rows_into`]).
+const BUILD_ROWS: usize = 1024;
+
+/// Sizes an `n`-row matrix `out` in its own memory: its row offsets from each row's number
+/// of entries, `len(scratch, i)` (computed in parallel over pieces of [`BUILD_ROWS`] rows,
+/// each with a scratch from `init`), and its columns and values zeroed to fit.
+pub fn size_rows_into<S>(
+    n: usize,
+    out: &mut CsrMatrix,
+    init: impl Fn() -> S + Sync + Send,
+    len: impl Fn(&mut S, usize) -> u32 + Sync + Send,
+) {
+    out.row_ptr.clear();
+    out.row_ptr.resize(n + 1, 0);
+    out.row_ptr[1..]
+        .par_chunks_mut(BUILD_ROWS)
+        .enumerate()
+        .for_each_init(&init, |s, (c, lens)| {
+            for (k, l) in lens.iter_mut().enumerate() {
+                *l = len(s, c * BUILD_ROWS + k);
+            }
+        });
+    for i in 0..n {
+        out.row_ptr[i + 1] += out.row_ptr[i];
     }
+    let nnz = out.row_ptr[n] as usize;
+    out.col.clear();
+    out.col.resize(nnz, 0);
+    out.val.clear();
+    out.val.resize(nnz, 0.0);
+}
+
+/// Builds an `n`-row matrix into `out`, reusing its memory: `len(scratch, i)` gives row `i`'s
+/// number of entries ([`size_rows_into`]), then `fill(scratch, i, cols, vals)` writes
+/// exactly that many into the row's place, in parallel over pieces of [`BUILD_ROWS`] rows,
+/// each with a scratch of its own from `init`. No row is built twice in memory (no per-row
+/// or per-piece copies to join).
+pub fn build_rows_into<S>(
+    n: usize,
+    out: &mut CsrMatrix,
+    init: impl Fn() -> S + Sync + Send,
+    len: impl Fn(&mut S, usize) -> u32 + Sync + Send,
+    fill: impl Fn(&mut S, usize, &mut [u32], &mut [f64]) + Sync + Send,
+) {
+    size_rows_into(n, out, &init, len);
+    // Each piece's entries, split off in order.
+    let mut pieces = Vec::with_capacity(n.div_ceil(BUILD_ROWS));
+    let (mut col, mut val) = (out.col.as_mut_slice(), out.val.as_mut_slice());
+    for lo in (0..n).step_by(BUILD_ROWS) {
+        let hi = (lo + BUILD_ROWS).min(n);
+        let at = (out.row_ptr[hi] - out.row_ptr[lo]) as usize;
+        let (c, c_rest) = col.split_at_mut(at);
+        let (v, v_rest) = val.split_at_mut(at);
+        pieces.push((lo, hi, c, v));
+        (col, val) = (c_rest, v_rest);
+    }
+    let row_ptr = &out.row_ptr;
+    pieces
+        .into_par_iter()
+        .for_each_init(&init, |s, (lo, hi, c, v)| {
+            let base = row_ptr[lo] as usize;
+            for i in lo..hi {
+                let (a, b) = (row_ptr[i] as usize - base, row_ptr[i + 1] as usize - base);
+                fill(s, i, &mut c[a..b], &mut v[a..b]);
+            }
+        });
+}
+
+/// Sparse product `A B` of CSR matrices, `B` with `ncols` columns; parallel over rows of
+/// `A`, each row accumulated in a dense scratch row (Gustavson's algorithm), counted first
+/// and then written in its place ([`build_rows_into`]).
+pub fn spgemm(a: &CsrMatrix, b: &CsrMatrix, ncols: usize) -> CsrMatrix {
+    // Scratch: the row that last touched each column, and each column's sum.
+    let init = || (vec![u32::MAX; ncols], vec![0.0f64; ncols]);
+    let len = |(mark, _): &mut (Vec<u32>, Vec<f64>), i: usize| {
+        let mut count = 0;
+        for &k in a.row(i).0 {
+            for &j in b.row(k as usize).0 {
+                if mark[j as usize] != i as u32 {
+                    mark[j as usize] = i as u32;
+                    count += 1;
+                }
+            }
+        }
+        count
+    };
+    let fill =
+        |(mark, acc): &mut (Vec<u32>, Vec<f64>), i: usize, cols: &mut [u32], vals: &mut [f64]| {
+            // (A scratch of this pass's own: the counting pass's marks are not seen here.)
+            let tag = i as u32;
+            let mut count = 0;
+            let (ca, va) = a.row(i);
+            for (&k, &x) in ca.iter().zip(va) {
+                let (cb, vb) = b.row(k as usize);
+                for (&j, &y) in cb.iter().zip(vb) {
+                    let j = j as usize;
+                    if mark[j] != tag {
+                        mark[j] = tag;
+                        acc[j] = 0.0;
+                        cols[count] = j as u32;
+                        count += 1;
+                    }
+                    acc[j] += x * y;
+                }
+            }
+            cols.sort_unstable();
+            for (v, &j) in vals.iter_mut().zip(cols.iter()) {
+                *v = acc[j as usize];
+            }
+        };
+    let mut out = CsrMatrix::default();
+    build_rows_into(a.n(), &mut out, init, len, fill);
     out
 }
 
@@ -248,6 +320,55 @@ pub(crate) mod tests {
             );
         }
         assert_eq!(y[0], 0.0);
+    }
+
+    /// `spgemm` built in place against the dense product, on a rectangular `B` and with rows
+    /// of `A` of every length 0 to 2999 (so the pieces of `BUILD_ROWS` rows split unevenly).
+    #[test]
+    fn spgemm_agrees_with_the_dense_product() {
+        let (n, m) = (3000, 7);
+        let mut a = CsrMatrix {
+            row_ptr: vec![0],
+            ..Default::default()
+        };
+        for i in 0..n {
+            let len = (i * 13) % 5;
+            let mut cols: Vec<u32> = (0..len).map(|k| ((i + 3 * k) % n) as u32).collect();
+            cols.sort_unstable();
+            cols.dedup();
+            for &j in &cols {
+                a.col.push(j);
+                a.val.push(1.0 + (i as f64 - j as f64) * 0.01);
+            }
+            a.row_ptr.push(a.col.len() as u32);
+        }
+        let b = CsrMatrix::from_rows((0..n).map(|k| {
+            (0..m as u32)
+                .filter(|j| (k + *j as usize) % 3 != 0)
+                .map(|j| (j, 0.5 + (k % 11) as f64 - j as f64))
+                .collect::<Vec<_>>()
+        }));
+        let c = spgemm(&a, &b, m);
+        assert_eq!(c.n(), n);
+        for i in 0..n {
+            let (ci, vi) = c.row(i);
+            assert!(ci.windows(2).all(|w| w[0] < w[1]), "row {i} unsorted");
+            let mut dense = vec![0.0; m];
+            let mut touched = vec![false; m];
+            let (ca, va) = a.row(i);
+            for (&k, &x) in ca.iter().zip(va) {
+                let (cb, vb) = b.row(k as usize);
+                for (&j, &y) in cb.iter().zip(vb) {
+                    dense[j as usize] += x * y;
+                    touched[j as usize] = true;
+                }
+            }
+            let want: Vec<u32> = (0..m as u32).filter(|&j| touched[j as usize]).collect();
+            assert_eq!(ci, want.as_slice(), "row {i}");
+            for (&j, &v) in ci.iter().zip(vi) {
+                assert!((v - dense[j as usize]).abs() < 1e-12, "row {i} col {j}");
+            }
+        }
     }
 
     /// The MPS Laplacian (weights `re/r - 1`, re = 3.1 l0) on an `m x m` lattice, the

@@ -242,24 +242,8 @@ fn fill_rows<const D: usize>(
 fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32], sys: &mut PressureSystem) {
     let rows = particle_of.len();
     let m = &mut sys.matrix;
-    m.row_ptr.clear();
-    m.row_ptr.resize(rows + 1, 0);
-    m.row_ptr[1..]
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .for_each(|(c, lens)| {
-            for (k, len) in lens.iter_mut().enumerate() {
-                *len = ctx.row_length(particle_of[c * CHUNK + k] as usize);
-            }
-        });
-    for r in 0..rows {
-        m.row_ptr[r + 1] += m.row_ptr[r];
-    }
-    let total = m.row_ptr[rows] as usize;
-    m.col.clear();
-    m.col.resize(total, 0);
-    m.val.clear();
-    m.val.resize(total, 0.0);
+    let len = |_: &mut (), r: usize| ctx.row_length(particle_of[r] as usize);
+    crate::linalg::sparse::size_rows_into(rows, m, || (), len);
     sys.rhs.clear();
     sys.rhs.resize(rows, 0.0);
     let parts = (&mut m.col[..], &mut m.val[..], &mut sys.rhs[..]);

@@ -617,30 +617,34 @@ impl<const D: usize> Simulation<D> {
         min_pair: f64,
         dt: f64,
     ) -> Result<f64, Failure> {
+        let lim = self.limits();
+        // The closest pair's ids for the breakdown record, found at r* before r* is
+        // overwritten by the corrected positions.
+        let pair = (min_pair < lim.min_pair).then(|| self.pair_at(&pred, &surf, min_pair));
+        // u = u* + dt a, r = r* + dt^2 a (+ shift), written over u* and r* (no new vectors).
+        let Predicted { mut pos, mut vel } = pred;
         let p = &self.particles;
-        let (vel, pos): (Vec<Vector<D>>, Vec<Vector<D>>) = (0..pred.pos.len())
-            .into_par_iter()
-            .map(|i| {
-                if p.kind[i] != Kind::Fluid {
-                    return (pred.vel[i], pred.pos[i]);
-                }
+        pos.par_iter_mut()
+            .zip(vel.par_iter_mut())
+            .enumerate()
+            .filter(|(i, _)| p.kind[*i] == Kind::Fluid)
+            .for_each(|(i, (x, u))| {
                 let a = match ds_acc {
                     Some(ds) => acc[i] + ds[i],
                     None => acc[i],
                 };
-                let moved = pred.pos[i] + a * (dt * dt);
-                match shifts {
-                    Some(d) => (pred.vel[i] + a * dt, moved + d[i]),
-                    None => (pred.vel[i] + a * dt, moved),
+                *x += a * (dt * dt);
+                if let Some(d) = shifts {
+                    *x += d[i];
                 }
-            })
-            .unzip();
+                *u += a * dt;
+            });
         let own = self.owned();
         let (o_pos, o_vel, o_p) = (&pos[..own], &vel[..own], &pressure[..own]);
-        let mut result = check_state(p, o_pos, o_vel, o_p, min_pair, &self.limits());
+        let mut result = check_state(p, o_pos, o_vel, o_p, min_pair, &lim);
         if let Err(f) = &mut result {
             if matches!(f.reason, BreakdownReason::Penetration { .. }) {
-                f.particles = self.pair_at(&pred, &surf, min_pair);
+                f.particles = pair.unwrap_or_default();
             }
         }
         if self.is_distributed() {
