@@ -344,7 +344,7 @@ pub(crate) mod tests {
         }
         let b = CsrMatrix::from_rows((0..n).map(|k| {
             (0..m as u32)
-                .filter(|j| (k + *j as usize) % 3 != 0)
+                .filter(|j| !(k + *j as usize).is_multiple_of(3))
                 .map(|j| (j, 0.5 + (k % 11) as f64 - j as f64))
                 .collect::<Vec<_>>()
         }));

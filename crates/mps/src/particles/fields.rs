@@ -202,7 +202,11 @@ macro_rules! particle_fields {
                     inverse[old as usize] = new as u32;
                 }
                 $(
-                    self.$name = order.iter().map(|&o| self.$name[o as usize]).collect();
+                    self.$name = {
+                        use rayon::prelude::*;
+                        let field = &self.$name;
+                        order.par_iter().map(|&o| field[o as usize]).collect()
+                    };
                     $( stringify!($remap); remap_indices(&mut self.$name, &inverse); )?
                 )*
             }

@@ -127,11 +127,15 @@ impl<const D: usize> CellGrid<D> {
     /// within `bounds` (m), when given: points beyond it (particles that left the domain) go
     /// to the border cells, so a runaway particle cannot size the grid.
     pub fn build(points: &[Vector<D>], cell: f64, bounds: Option<(Vector<D>, Vector<D>)>) -> Self {
-        let (mut lo, mut hi) = (Vector([f64::MAX; D]), Vector([f64::MIN; D]));
-        for p in points.iter().filter(|p| p.is_finite()) {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
+        let far = (Vector([f64::MAX; D]), Vector([f64::MIN; D]));
+        let (mut lo, mut hi) = points
+            .par_iter()
+            .filter(|p| p.is_finite())
+            .fold(|| far, |(lo, hi), p| (lo.min(p), hi.max(p)))
+            .reduce(
+                || far,
+                |(lo_a, hi_a), (lo_b, hi_b)| (lo_a.min(&lo_b), hi_a.max(&hi_b)),
+            );
         if let Some((blo, bhi)) = bounds {
             lo = lo.max(&blo);
             hi = hi.min(&bhi);
@@ -174,7 +178,7 @@ impl<const D: usize> CellGrid<D> {
             sorted[fill[k as usize] as usize] = i as u32;
             fill[k as usize] += 1;
         }
-        grid.sorted_points = sorted.iter().map(|&i| points[i as usize]).collect();
+        grid.sorted_points = sorted.par_iter().map(|&i| points[i as usize]).collect();
         grid.start = count;
         grid.sorted = sorted;
         grid
@@ -213,12 +217,13 @@ impl<const D: usize> CellGrid<D> {
     /// Per cell, whether it holds a point with `marked[i]`.
     fn cells_holding(&self, marked: &[bool]) -> Vec<bool> {
         let ncell = self.start.len() - 1;
-        let mut out = vec![false; ncell];
-        for c in 0..ncell {
-            let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
-            out[c] = self.sorted[a..b].iter().any(|&i| marked[i as usize]);
-        }
-        out
+        (0..ncell)
+            .into_par_iter()
+            .map(|c| {
+                let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
+                self.sorted[a..b].iter().any(|&i| marked[i as usize])
+            })
+            .collect()
     }
 
     /// Whether any of the 3^D cells around `p` is flagged in `cells` (from `cells_holding`):
@@ -291,7 +296,9 @@ pub fn build_neighbor_list_within<const D: usize>(
     cutoff: f64,
     bounds: Option<(Vector<D>, Vector<D>)>,
 ) -> NeighborList {
-    build_lists(points, cutoff, bounds, None)
+    let mut out = NeighborList::default();
+    build_lists(points, cutoff, bounds, None, &mut out);
+    out
 }
 
 /// Which points need which lists (for [`build_neighbor_list_near`]).
@@ -315,7 +322,22 @@ pub fn build_neighbor_list_near<const D: usize>(
     bounds: Option<(Vector<D>, Vector<D>)>,
     needs: ListNeeds,
 ) -> NeighborList {
-    build_lists(points, cutoff, bounds, Some(needs))
+    let mut out = NeighborList::default();
+    build_lists(points, cutoff, bounds, Some(needs), &mut out);
+    out
+}
+
+/// [`build_neighbor_list_near`] into `out`, reusing the memory of the lists it held (a
+/// list of a million particles is larger than the blocks the allocator keeps, and a fresh
+/// one is faulted in page by page; its old lists, near lists included, are dropped).
+pub fn build_neighbor_list_near_into<const D: usize>(
+    points: &[Vector<D>],
+    cutoff: f64,
+    bounds: Option<(Vector<D>, Vector<D>)>,
+    needs: ListNeeds,
+    out: &mut NeighborList,
+) {
+    build_lists(points, cutoff, bounds, Some(needs), out);
 }
 
 fn build_lists<const D: usize>(
@@ -323,7 +345,9 @@ fn build_lists<const D: usize>(
     cutoff: f64,
     bounds: Option<(Vector<D>, Vector<D>)>,
     needs: Option<ListNeeds>,
-) -> NeighborList {
+    out: &mut NeighborList,
+) {
+    out.near = None;
     let grid = CellGrid::build(points, cutoff, bounds);
     let n = points.len();
     let c2 = cutoff * cutoff;
@@ -358,14 +382,9 @@ fn build_lists<const D: usize>(
             })
         },
     );
-    let offsets = crate::parallel::offsets(&counts);
-    let indices = crate::parallel::concat(&lists);
-    NeighborList {
-        offsets,
-        indices,
-        cutoff,
-        near: None,
-    }
+    crate::parallel::offsets_into(&counts, &mut out.offsets);
+    crate::parallel::concat_into(&lists, &mut out.indices);
+    out.cutoff = cutoff;
 }
 
 /// The order (new index -> old index) that sorts points along the cells of side `cell` (m),

@@ -387,19 +387,28 @@ impl<const D: usize> Simulation<D> {
     /// within its reach (a dummy's without the other dummies); the others, which no
     /// pair loop visits, get none (docs/decisions.md, "Lists only within the fluid's reach").
     fn neighbors_at(&self, pos: &[Vector<D>]) -> NeighborList {
+        let mut out = NeighborList::default();
+        self.neighbors_into(pos, &mut out);
+        out
+    }
+
+    /// [`Self::neighbors_at`] into `out`, reusing the memory of the lists it held.
+    fn neighbors_into(&self, pos: &[Vector<D>], out: &mut NeighborList) {
         let kind = &self.particles.kind;
-        let fluid: Vec<bool> = kind.iter().map(|k| *k == Kind::Fluid).collect();
-        let dummy: Vec<bool> = kind.iter().map(|k| *k == Kind::Dummy).collect();
+        use rayon::prelude::*;
+        let fluid: Vec<bool> = kind.par_iter().map(|k| *k == Kind::Fluid).collect();
+        let dummy: Vec<bool> = kind.par_iter().map(|k| *k == Kind::Dummy).collect();
         let needs = crate::particles::neighbors::ListNeeds {
             moving: &fluid,
             apart: &dummy,
         };
-        crate::particles::neighbors::build_neighbor_list_near(
+        crate::particles::neighbors::build_neighbor_list_near_into(
             pos,
             self.cutoff(),
             self.grid_bounds(),
             needs,
-        )
+            out,
+        );
     }
 
     /// Recomputes number density, free-surface flags and wall pressures at the current

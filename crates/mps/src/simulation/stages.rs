@@ -16,7 +16,7 @@ use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
 use crate::particles::neighbors::locality_order;
-use crate::particles::{Kind, NeighborList, Vector, View, NONE};
+use crate::particles::{Kind, Vector, View, NONE};
 use rayon::prelude::*;
 
 /// Steps between reorderings of the particles along the cell list (memory locality; the
@@ -79,9 +79,11 @@ impl<const D: usize> Simulation<D> {
         if self.step_count.is_multiple_of(REORDER_EVERY) {
             self.reorder();
         }
-        // The old list goes first, so the two never coexist (peak memory).
-        self.neighbors = NeighborList::default();
-        self.neighbors = self.neighbors_at(&self.particles.position);
+        // Built into the old lists' memory (a fresh list of a million particles would be
+        // faulted in page by page every step: docs/decisions.md, "Neighbour lists in place").
+        let mut lists = std::mem::take(&mut self.neighbors);
+        self.neighbors_into(&self.particles.position, &mut lists);
+        self.neighbors = lists;
     }
 
     /// Stage 2: `u* = u + dt (nu lap u + g + a_tension + a_repulsion)`, `r* = r + dt u*` for
@@ -148,8 +150,9 @@ impl<const D: usize> Simulation<D> {
         }
         if 2.0 * max_move > self.skin {
             self.timed(Stage::Neighbors, |s| {
-                s.neighbors = NeighborList::default();
-                s.neighbors = s.neighbors_at(&pred.pos);
+                let mut lists = std::mem::take(&mut s.neighbors);
+                s.neighbors_into(&pred.pos, &mut lists);
+                s.neighbors = lists;
             });
         }
         Ok(())
