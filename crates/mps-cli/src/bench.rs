@@ -127,6 +127,8 @@ fn measure_in<const D: usize>(
         .map_err(|e| bad(format!("--threads {threads}: {e}")))?;
     let broke = |b: mps::Breakdown| bad(format!("{label}: the benchmark run broke down: {b}"));
     pool.install(|| -> Result<Row, Failure> {
+        // An earlier measurement's freed memory, which glibc was told to keep, would count.
+        mps::simulation::memory::release_freed_memory();
         reset_peak_memory();
         let mut sim = Simulation::<D>::new(case.clone(), label)?;
         for _ in 0..warmup {
