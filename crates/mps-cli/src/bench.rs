@@ -58,6 +58,8 @@ struct Row {
     peak_bytes: Option<u64>,
     /// Best time of one SpMV with the last PPE matrix, its rows and stored entries.
     spmv: Option<(Duration, usize, usize)>,
+    /// The process's system CPU time over its user CPU time during the timed steps (%).
+    system_percent: f64,
 }
 
 /// Per-step figures of a measurement (ms), and particle-steps per second.
@@ -135,6 +137,7 @@ fn measure_in<const D: usize>(
             sim.step(f64::INFINITY).map_err(broke)?;
         }
         sim.timers = Timers::default();
+        let cpu0 = cpu_times();
         let start = Instant::now();
         let mut iters = 0u64;
         for _ in 0..steps {
@@ -142,6 +145,10 @@ fn measure_in<const D: usize>(
             iters += r.solve.iterations as u64;
         }
         let seconds = start.elapsed().as_secs_f64();
+        let system_percent = match (cpu0, cpu_times()) {
+            (Some((u0, s0)), Some((u1, s1))) if u1 > u0 => 100.0 * (s1 - s0) / (u1 - u0),
+            _ => f64::NAN,
+        };
         let spmv = sim.last_system.as_ref().map(|s| {
             let a = &s.matrix;
             let x = vec![1.0; a.n()];
@@ -172,8 +179,26 @@ fn measure_in<const D: usize>(
             timers: sim.timers,
             peak_bytes: peak_memory(),
             spmv,
+            system_percent,
         })
     })
+}
+
+/// CPU time of this process so far, all threads, (user, system) in seconds (`getrusage`,
+/// microsecond resolution); `None` where it fails or on other systems than Unix.
+fn cpu_times() -> Option<(f64, f64)> {
+    #[cfg(unix)]
+    {
+        // SAFETY: getrusage writes one rusage struct, which is plain data.
+        let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+        if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } != 0 {
+            return None;
+        }
+        let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+        Some((secs(u.ru_utime), secs(u.ru_stime)))
+    }
+    #[cfg(not(unix))]
+    None
 }
 
 /// Resets the kernel's peak-RSS mark of this process (Linux; ignored elsewhere).
@@ -247,7 +272,7 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
         rows[0].particles
     );
     say!(
-        "{:>7} {:>10} {:>12} {:>9} {:>11} {:>11} {:>11} {:>11} {:>11} {:>9} {:>12}",
+        "{:>7} {:>10} {:>12} {:>9} {:>11} {:>11} {:>11} {:>11} {:>11} {:>9} {:>12} {:>6}",
         "threads",
         "ms/step",
         "Mpart-st/s",
@@ -258,9 +283,10 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
         "solve ms",
         "rest ms",
         "speed-up",
-        "nb+expl s-up"
+        "nb+expl s-up",
+        "sys %"
     );
-    let mut csv = String::from("threads,particles,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,speedup,neighbors_explicit_speedup\n");
+    let mut csv = String::from("threads,particles,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,speedup,neighbors_explicit_speedup,system_percent_of_user\n");
     let base = &rows[0];
     let explicit = |r: &Row| {
         let t = &r.timers;
@@ -279,12 +305,13 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
         let speedup = base.seconds / r.seconds;
         let nb_speedup = explicit(base) / explicit(r);
         say!(
-            "{:>7} {:>10.3} {:>12.3} {:>9.1} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>9.2} {:>12.2}",
-            r.threads, total, pss / 1e6, r.mean_iterations, nb, asm, setup, sol, rest, speedup, nb_speedup
+            "{:>7} {:>10.3} {:>12.3} {:>9.1} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>11.3} {:>9.2} {:>12.2} {:>6.1}",
+            r.threads, total, pss / 1e6, r.mean_iterations, nb, asm, setup, sol, rest, speedup, nb_speedup,
+            r.system_percent
         );
         csv.push_str(&format!(
-            "{},{},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{speedup:.3},{nb_speedup:.3}\n",
-            r.threads, r.particles, r.steps, r.mean_iterations
+            "{},{},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{speedup:.3},{nb_speedup:.3},{:.2}\n",
+            r.threads, r.particles, r.steps, r.mean_iterations, r.system_percent
         ));
     }
     finish(&a, &csv, baseline.as_ref())?;
@@ -337,12 +364,12 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str, baseline: Option<&Table>) -> 
         case.solver.kind
     );
     say!(
-        "{:>9} {:>3} {:>6} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>8}",
+        "{:>9} {:>3} {:>6} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>8} {:>6}",
         "particles", "thr", "steps", "ms/step", "Mp-st/s", "PPE it", "neighb", "assemb", "setup",
-        "solve", "rest", "ns/p/core", "B/part", "SpMV/bw", "PPE/SpMV", "Mp-s/s/c"
+        "solve", "rest", "ns/p/core", "B/part", "SpMV/bw", "PPE/SpMV", "Mp-s/s/c", "sys %"
     );
     let mut csv = String::from(
-        "particles,fluid,threads,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,non_ppe_ns_per_particle_core,peak_bytes_per_particle,spmv_ms,spmv_gb_per_s,spmv_bandwidth_ratio,ppe_spmv_equivalents,triad_gb_per_s\n",
+        "particles,fluid,threads,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,non_ppe_ns_per_particle_core,peak_bytes_per_particle,spmv_ms,spmv_gb_per_s,spmv_bandwidth_ratio,ppe_spmv_equivalents,triad_gb_per_s,system_percent_of_user\n",
     );
     let mut md = String::from(
         "| particles | threads | ms/step | M particle-steps/s | CG it | neighb | assembly | set-up | solve | rest (ms) | non-PPE ns/particle/core | bytes/particle | SpMV / triad | PPE in SpMVs |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
@@ -377,13 +404,13 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str, baseline: Option<&Table>) -> 
                 None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
             };
             say!(
-                "{:>9} {:>3} {:>6} {:>9.2} {:>8.3} {:>7.1} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>8.0} {:>7.0} {:>7.2} {:>8.1} {:>8.3}",
+                "{:>9} {:>3} {:>6} {:>9.2} {:>8.3} {:>7.1} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>7.2} {:>8.0} {:>7.0} {:>7.2} {:>8.1} {:>8.3} {:>6.1}",
                 r.particles, t, r.steps, total, pss / 1e6, r.mean_iterations, nb, asm, setup, sol,
-                rest, non_ppe_ns, bytes, ratio, equiv, pss / 1e6 / t as f64
+                rest, non_ppe_ns, bytes, ratio, equiv, pss / 1e6 / t as f64, r.system_percent
             );
             csv.push_str(&format!(
-                "{},{},{t},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{non_ppe_ns:.1},{bytes:.0},{spmv_ms:.4},{spmv_gbs:.3},{ratio:.3},{equiv:.2},{bw:.3}\n",
-                r.particles, r.fluid, r.steps, r.mean_iterations
+                "{},{},{t},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{non_ppe_ns:.1},{bytes:.0},{spmv_ms:.4},{spmv_gbs:.3},{ratio:.3},{equiv:.2},{bw:.3},{:.2}\n",
+                r.particles, r.fluid, r.steps, r.mean_iterations, r.system_percent
             ));
             md.push_str(&format!(
                 "| {} | {t} | {} | {:.3} | {:.1} | {} | {} | {} | {} | {} | {non_ppe_ns:.0} | {bytes:.0} | {ratio:.2} | {equiv:.0} |\n",
