@@ -27,7 +27,6 @@ pub mod input;
 pub mod io;
 pub mod linalg;
 pub mod numerics;
-pub mod parallel;
 pub mod particles;
 pub mod run;
 pub mod simulation;

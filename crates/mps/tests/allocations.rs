@@ -34,13 +34,15 @@ unsafe impl GlobalAlloc for Counting {
 static ALLOCATOR: Counting = Counting;
 
 /// Allocations per step of the dam break (3200 fluid particles, 4.8k in all) after 20
-/// steps, on a one-thread pool. Today the step still allocates most of its stage vectors
-/// afresh (measured 123 allocations, 749 bytes per particle per step, since the PPE is
-/// assembled in place: docs/decisions.md, "The PPE assembled in place"): this holds it
-/// there, so a stage that starts allocating per particle, per pair, per row chunk or per CG
-/// iteration fails; issue 15's target is 0.
+/// steps, on a one-thread pool, over ten steps that include a reordering. Issue 15 asks for
+/// none after the first steps: the neighbour lists are built in regions of their own memory,
+/// the stages fill vectors kept from step to step, MIC(0) and CG set up in the last step's
+/// memory (docs/decisions.md, "A step without allocations"). Measured: none. What may still
+/// come is a vector growing with the number of unknowns (amortised doubling), so the test
+/// allows 3 in the ten steps and 10 bytes per particle per step; a stage that allocates
+/// per step (one vector a step is 8 to 16 bytes per particle) fails it.
 #[test]
-fn allocations_per_step_do_not_grow() {
+fn the_step_allocates_nothing_once_warm() {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
@@ -65,7 +67,7 @@ fn allocations_per_step_do_not_grow() {
         bytes / n
     );
     assert!(
-        calls <= 140.0 && bytes / n <= 850.0,
+        calls <= 0.3 && bytes / n <= 10.0,
         "{calls} allocations, {} bytes per particle per step",
         bytes / n
     );

@@ -13,21 +13,13 @@ use std::path::{Path, PathBuf};
 /// Folder -> the folders (and top-level files) it may use.
 const ALLOWED: &[(&str, &[&str])] = &[
     ("error", &[]),
-    ("parallel", &[]),
-    ("particles", &["parallel"]),
-    ("linalg", &["parallel"]),
-    ("numerics", &["particles", "linalg", "parallel"]),
+    ("particles", &[]),
+    ("linalg", &[]),
+    ("numerics", &["particles", "linalg"]),
     ("input", &["particles", "numerics", "linalg", "error"]),
     (
         "simulation",
-        &[
-            "particles",
-            "numerics",
-            "linalg",
-            "input",
-            "error",
-            "parallel",
-        ],
+        &["particles", "numerics", "linalg", "input", "error"],
     ),
     (
         "analysis",

@@ -6,7 +6,7 @@ use super::sparse::CsrMatrix;
 
 /// Incomplete Cholesky factor `L` (lower triangle incl. diagonal, row-wise) with the
 /// sparsity of the lower triangle of `A`: IC(0).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Ic0 {
     l: CsrMatrix,
     /// `1 / L_ii`, so the substitutions multiply instead of dividing on their critical path.
@@ -57,20 +57,38 @@ impl Ic0 {
     /// update either lands on an entry or is dropped without a search (docs/decisions.md,
     /// "MIC(0)"). `None` if a pivot is not positive.
     pub fn modified(a: &CsrMatrix, omega: f64) -> Option<Ic0> {
+        let mut f = Ic0::default();
+        f.modify_from(a, omega, &mut Mic0Scratch::default())
+            .then_some(f)
+    }
+
+    /// [`Ic0::modified`] into this factor's memory, with `scratch` for the column view:
+    /// once warm, a set-up allocates nothing. False (the factor unusable) if a pivot is not
+    /// positive.
+    pub fn modify_from(&mut self, a: &CsrMatrix, omega: f64, scratch: &mut Mic0Scratch) -> bool {
         let n = a.n();
-        let mut l = lower_triangle(a);
-        let (start, below) = columns_below(&l);
+        let l = &mut self.l;
+        lower_triangle_into(a, l);
+        let Mic0Scratch {
+            start,
+            below,
+            cursor,
+            slot,
+        } = scratch;
+        columns_below_into(l, start, below, cursor);
         // Per column, the first entry of `below` not yet passed by the sweep over k.
-        let mut cursor: Vec<u32> = start[..n].to_vec();
+        cursor.clear();
+        cursor.extend_from_slice(&start[..n]);
         // Position in `l.val` of entry (i, k) of the current column k, if in the pattern.
-        let mut slot = vec![u32::MAX; n];
+        slot.clear();
+        slot.resize(n, u32::MAX);
         let diag = |l: &CsrMatrix, i: usize| l.row_ptr[i + 1] as usize - 1;
         for k in 0..n {
             let col = &below[start[k] as usize..start[k + 1] as usize];
             for &(i, p) in col {
                 slot[i as usize] = p;
             }
-            let dk = diag(&l, k);
+            let dk = diag(l, k);
             let (rs, re) = (l.row_ptr[k] as usize, dk);
             for q in rs..re {
                 let (m, lkm) = (l.col[q] as usize, l.val[q]);
@@ -85,7 +103,7 @@ impl Ic0 {
                     let prod = l.val[pim as usize] * lkm;
                     match slot[i as usize] {
                         u32::MAX => {
-                            let di = diag(&l, i as usize);
+                            let di = diag(l, i as usize);
                             l.val[di] -= omega * prod;
                             l.val[dk] -= omega * prod;
                         }
@@ -95,7 +113,7 @@ impl Ic0 {
             }
             let d = l.val[dk];
             if d <= 0.0 || !d.is_finite() {
-                return None;
+                return false;
             }
             let lkk = d.sqrt();
             l.val[dk] = lkk;
@@ -104,15 +122,26 @@ impl Ic0 {
                 slot[i as usize] = u32::MAX;
             }
         }
-        Some(Ic0::from_factor(l))
+        self.invert_diagonal();
+        true
     }
 
     /// The preconditioner of factor `l` (diagonal last in each row).
     fn from_factor(l: CsrMatrix) -> Ic0 {
-        let inv_diag = (0..l.n())
-            .map(|i| 1.0 / l.val[l.row_ptr[i + 1] as usize - 1])
-            .collect();
-        Ic0 { l, inv_diag }
+        let mut f = Ic0 {
+            l,
+            inv_diag: Vec::new(),
+        };
+        f.invert_diagonal();
+        f
+    }
+
+    /// `inv_diag` from the factor's diagonal.
+    fn invert_diagonal(&mut self) {
+        let l = &self.l;
+        self.inv_diag.clear();
+        self.inv_diag
+            .extend((0..l.n()).map(|i| 1.0 / l.val[l.row_ptr[i + 1] as usize - 1]));
     }
 
     /// `z = (L L^T)^-1 r`.
@@ -138,10 +167,21 @@ impl Ic0 {
 
 /// The lower triangle of `a`, diagonal included (last in each row).
 fn lower_triangle(a: &CsrMatrix) -> CsrMatrix {
+    let mut l = CsrMatrix::default();
+    lower_triangle_into(a, &mut l);
+    l
+}
+
+/// [`lower_triangle`] into `l`, reusing its memory.
+fn lower_triangle_into(a: &CsrMatrix, l: &mut CsrMatrix) {
     let n = a.n();
-    let mut row_ptr = Vec::with_capacity(n + 1);
-    let mut col = Vec::with_capacity(a.nnz() / 2 + n);
-    let mut val = Vec::with_capacity(a.nnz() / 2 + n);
+    let CsrMatrix { row_ptr, col, val } = l;
+    row_ptr.clear();
+    col.clear();
+    val.clear();
+    row_ptr.reserve(n + 1);
+    col.reserve(a.nnz() / 2 + n);
+    val.reserve(a.nnz() / 2 + n);
     row_ptr.push(0u32);
     for i in 0..n {
         let (c, v) = a.row(i);
@@ -153,14 +193,40 @@ fn lower_triangle(a: &CsrMatrix) -> CsrMatrix {
         }
         row_ptr.push(col.len() as u32);
     }
-    CsrMatrix { row_ptr, col, val }
+}
+
+/// The memory of a MIC(0) set-up's column view, kept between set-ups.
+#[derive(Clone, Debug, Default)]
+pub struct Mic0Scratch {
+    /// `start[k]..start[k + 1]` indexes `below` for column `k`.
+    start: Vec<u32>,
+    /// `(row, position in l.val)` of each column's entries, rows ascending.
+    below: Vec<(u32, u32)>,
+    /// Per column, a cursor into `below` (also the fill counters of the column view).
+    cursor: Vec<u32>,
+    /// Per row, the position of the current column's entry in `l.val`, if any.
+    slot: Vec<u32>,
 }
 
 /// Column view of the strict lower triangle of `l`: `start[k]..start[k + 1]` indexes
 /// `below`, the `(row, position in l.val)` of column `k`'s entries, rows ascending.
+#[cfg(test)]
 fn columns_below(l: &CsrMatrix) -> (Vec<u32>, Vec<(u32, u32)>) {
+    let (mut start, mut below) = (Vec::new(), Vec::new());
+    columns_below_into(l, &mut start, &mut below, &mut Vec::new());
+    (start, below)
+}
+
+/// [`columns_below`] into `start` and `below`, with `fill` as the per-column counters.
+fn columns_below_into(
+    l: &CsrMatrix,
+    start: &mut Vec<u32>,
+    below: &mut Vec<(u32, u32)>,
+    fill: &mut Vec<u32>,
+) {
     let n = l.n();
-    let mut start = vec![0u32; n + 1];
+    start.clear();
+    start.resize(n + 1, 0);
     for i in 0..n {
         let (c, _) = l.row(i);
         for &k in &c[..c.len() - 1] {
@@ -170,8 +236,10 @@ fn columns_below(l: &CsrMatrix) -> (Vec<u32>, Vec<(u32, u32)>) {
     for k in 0..n {
         start[k + 1] += start[k];
     }
-    let mut fill = start.clone();
-    let mut below = vec![(0u32, 0u32); start[n] as usize];
+    fill.clear();
+    fill.extend_from_slice(start);
+    // Every entry is written below: only new room is zeroed.
+    below.resize(start[n] as usize, (0, 0));
     for i in 0..n {
         let s = l.row_ptr[i] as usize;
         let (c, _) = l.row(i);
@@ -180,7 +248,6 @@ fn columns_below(l: &CsrMatrix) -> (Vec<u32>, Vec<(u32, u32)>) {
             fill[k as usize] += 1;
         }
     }
-    (start, below)
 }
 
 impl Precondition for Ic0 {

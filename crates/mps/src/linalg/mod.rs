@@ -1,7 +1,7 @@
 //! Linear algebra for the pressure Poisson equation: sparse matrices, preconditioned
 //! conjugate gradient, IC(0) and smoothed-aggregation AMG.
 //!
-//! A leaf: knows nothing of particles, kernels or schemes (uses only the leaf `parallel`).
+//! A leaf: knows nothing of particles, kernels or schemes.
 //! `sparse` is the leaf inside it; `pcg` defines the preconditioner interface that `ic0`
 //! and `amg` implement.
 
@@ -13,8 +13,8 @@ pub mod sparse;
 
 pub use amg::{Amg, AmgParams};
 pub use dilu::{dilu_cg, Dilu};
-pub use ic0::Ic0;
-pub use pcg::{pcg, Identity, Jacobi, NotConverged, Precondition, SolveStats};
+pub use ic0::{Ic0, Mic0Scratch};
+pub use pcg::{pcg, pcg_in, CgVectors, Identity, Jacobi, NotConverged, Precondition, SolveStats};
 pub use sparse::CsrMatrix;
 
 use serde::{Deserialize, Serialize};

@@ -90,7 +90,34 @@ pub fn pcg(
     tol: f64,
     max_iter: usize,
 ) -> Result<SolveStats, NotConverged> {
+    pcg_in(a, b, x, m, (tol, max_iter), &mut CgVectors::default())
+}
+
+/// The work vectors of CG (residual, preconditioned residual, direction, product), kept
+/// between solves so a solve allocates nothing once warm.
+#[derive(Clone, Debug, Default)]
+pub struct CgVectors {
+    r: Vec<f64>,
+    z: Vec<f64>,
+    q: Vec<f64>,
+    p: Vec<f64>,
+}
+
+/// [`pcg`] to `(tol, max_iter)` in the memory of `work`.
+pub fn pcg_in(
+    a: &CsrMatrix,
+    b: &[f64],
+    x: &mut [f64],
+    m: &(impl Precondition + ?Sized),
+    (tol, max_iter): (f64, usize),
+    work: &mut CgVectors,
+) -> Result<SolveStats, NotConverged> {
     let n = b.len();
+    let CgVectors { r, z, q, p } = work;
+    for v in [&mut *r, &mut *z, &mut *q] {
+        v.clear();
+        v.resize(n, 0.0);
+    }
     // Pieces handed to the pool: all on this thread for a small sequential solve.
     let ml = if m.sequential() && n < SEQUENTIAL_BELOW {
         usize::MAX
@@ -103,27 +130,25 @@ pub fn pcg(
         x.iter_mut().for_each(|v| *v = 0.0);
         return Ok(SolveStats::default());
     }
-    let mut r = vec![0.0; n];
-    a.spmv_split(x, &mut r, ml);
+    a.spmv_split(x, r, ml);
     r.par_iter_mut()
         .zip(b)
         .with_min_len(ml)
         .for_each(|(ri, bi)| *ri = bi - *ri);
-    let mut z = vec![0.0; n];
-    let mut q = vec![0.0; n];
-    let mut rnorm = dot(&r, &r).sqrt();
+    let mut rnorm = dot(r, r).sqrt();
     if rnorm <= tol * bnorm {
         return Ok(SolveStats {
             iterations: 0,
             residual: rnorm / bnorm,
         });
     }
-    m.apply(a, &r, &mut z);
-    let mut p = z.clone();
-    let mut rz = dot(&r, &z);
+    m.apply(a, r, z);
+    p.clear();
+    p.extend_from_slice(z);
+    let mut rz = dot(r, z);
     for it in 1..=max_iter {
-        a.spmv_split(&p, &mut q, ml);
-        let pq = dot(&p, &q);
+        a.spmv_split(p, q, ml);
+        let pq = dot(p, q);
         if !(pq > 0.0) {
             break;
         }
@@ -138,7 +163,7 @@ pub fn pcg(
                     r[k] -= alpha * q[k];
                 }
             });
-        rnorm = dot(&r, &r).sqrt();
+        rnorm = dot(r, r).sqrt();
         if !rnorm.is_finite() {
             break;
         }
@@ -148,8 +173,8 @@ pub fn pcg(
                 residual: rnorm / bnorm,
             });
         }
-        m.apply(a, &r, &mut z);
-        let rz_new = dot(&r, &z);
+        m.apply(a, r, z);
+        let rz_new = dot(r, z);
         let beta = rz_new / rz;
         rz = rz_new;
         p.par_chunks_mut(CHUNK)

@@ -14,14 +14,18 @@ pub struct Collision {
     pub restitution: f64,
 }
 
-/// Velocities (m/s) after the collision model at distance `dist` (m), and the number of
-/// treated pairs.
-pub fn collide<const D: usize>(v: &View<D>, dist: f64, e: f64) -> (Vec<Vector<D>>, u64) {
-    let (vel, count): (Vec<Vector<D>>, Vec<u32>) = (0..v.pos.len())
-        .into_par_iter()
-        .map(|i| {
+/// Velocities (m/s) after the collision model at distance `dist` (m), into `vel`; returns
+/// the number of treated pairs.
+pub fn collide<const D: usize>(v: &View<D>, dist: f64, e: f64, vel: &mut Vec<Vector<D>>) -> u64 {
+    vel.clear();
+    vel.resize(v.pos.len(), Vector::zero());
+    let treated: u64 = vel
+        .par_iter_mut()
+        .enumerate()
+        .map(|(i, out)| {
             if v.kind[i] != Kind::Fluid {
-                return (v.vel[i], 0);
+                *out = v.vel[i];
+                return 0;
             }
             let mut u = v.vel[i];
             let mut count = 0;
@@ -39,8 +43,9 @@ pub fn collide<const D: usize>(v: &View<D>, dist: f64, e: f64) -> (Vec<Vector<D>
                 u += en * ((1.0 + e) * share * vn);
                 count += 1;
             }
-            (u, count)
+            *out = u;
+            count
         })
-        .unzip();
-    (vel, count.iter().map(|&x| x as u64).sum::<u64>() / 2)
+        .sum();
+    treated / 2
 }

@@ -47,6 +47,8 @@ pub struct PressureSystem {
     /// Dirichlet value of every particle (Pa): 0 but for free-surface fluid particles with
     /// `surface_pressure = "mean-surface"`; empty when all are 0.
     pub dirichlet_value: Vec<f64>,
+    /// Per particle, whether it has no row (the assembly's scratch, kept).
+    no_row: Vec<bool>,
 }
 
 /// Where the pressure level of a closed domain is fixed: the fluid particle nearest to
@@ -282,10 +284,11 @@ pub fn assemble_into<const D: usize>(
     sys: &mut PressureSystem,
 ) {
     let n = v.pos.len();
-    let mut dirichlet: Vec<bool> = (0..n)
+    let mut dirichlet = std::mem::take(&mut sys.no_row);
+    (0..n)
         .into_par_iter()
         .map(|i| is_dirichlet(i, v, k.lap.re))
-        .collect();
+        .collect_into_vec(&mut dirichlet);
     let closed =
         !reference.open_elsewhere && !(0..n).any(|i| dirichlet[i] && v.kind[i] != Kind::Dummy);
     let level_particle: Option<u32> = match (closed, reference.at) {
@@ -302,12 +305,14 @@ pub fn assemble_into<const D: usize>(
     row_of.clear();
     row_of.resize(n, NONE);
     particle_of.clear();
+    particle_of.reserve(n);
     for i in 0..n {
         if !dirichlet[i] {
             row_of[i] = particle_of.len() as u32;
             particle_of.push(i as u32);
         }
     }
+    sys.no_row = dirichlet;
     let mut dirichlet = std::mem::take(&mut sys.dirichlet_value);
     dirichlet.clear();
     if s.surface_pressure == SurfacePressure::MeanSurface && !closed {

@@ -51,65 +51,65 @@ pub fn extrapolated_pressure<const D: usize>(
 /// fluid side does (docs/decisions.md, "Wall pressure"). In a `closed` domain (no free
 /// surface, the level set by a reference) there is no air and the level is arbitrary: every
 /// extrapolated wall pressure is kept as it is, negative ones included.
+///
+/// `values` and `carries` are filled (one entry a particle); `values` is scratch.
 #[allow(clippy::too_many_arguments)]
 pub fn boundary_pressures<const D: usize>(
     v: &View<D>,
     backing_wall: &[u32],
-    model: WallPressure,
-    clamp: bool,
-    closed: bool,
+    (model, clamp, closed): (WallPressure, bool, bool),
     gravity: Vector<D>,
     k: &Kernels,
     pressure: &mut [f64],
-) -> Vec<bool> {
+    values: &mut Vec<f64>,
+    carries: &mut Vec<bool>,
+) {
     let n = v.pos.len();
     let solved: &[f64] = pressure;
-    let boundary: Vec<(usize, (f64, bool))> = match model {
-        WallPressure::Extrapolated => (0..n)
-            .into_par_iter()
-            .filter(|&i| v.kind[i] != Kind::Fluid)
-            .map(|i| {
-                let e = extrapolated_pressure(i, v, solved, gravity, k.lap.re);
-                (i, e.map_or((0.0, false), |p| (p, closed || p > 0.0)))
-            })
-            .collect(),
-        WallPressure::Hydrostatic => (0..n)
-            .into_par_iter()
-            .filter(|&i| v.kind[i] == Kind::Dummy && backing_wall[i] != NONE)
-            .map(|i| {
-                let w = backing_wall[i] as usize;
-                (
-                    i,
-                    (
-                        solved[w] + v.density[i] * gravity.dot(&(v.pos[i] - v.pos[w])),
-                        true,
-                    ),
-                )
-            })
-            .collect(),
-        WallPressure::None => Vec::new(),
+    let boundary = |i: usize| match model {
+        WallPressure::Extrapolated => v.kind[i] != Kind::Fluid,
+        WallPressure::Hydrostatic => v.kind[i] == Kind::Dummy && backing_wall[i] != NONE,
+        WallPressure::None => false,
     };
-    let mut carries: Vec<bool> = v
-        .kind
-        .iter()
-        .map(|k| *k != Kind::Dummy || model != WallPressure::None)
-        .collect();
-    for (i, (p, carried)) in boundary {
-        if model == WallPressure::Extrapolated {
-            carries[i] = carried;
-            pressure[i] = if closed { p } else { p.max(0.0) };
-        } else {
-            pressure[i] = if clamp { p.max(0.0) } else { p };
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let carried = v.kind[i] != Kind::Dummy || model != WallPressure::None;
+            if !boundary(i) {
+                return (0.0, carried);
+            }
+            match model {
+                WallPressure::Extrapolated => {
+                    let e = extrapolated_pressure(i, v, solved, gravity, k.lap.re);
+                    let (p, carried) = e.map_or((0.0, false), |p| (p, closed || p > 0.0));
+                    (if closed { p } else { p.max(0.0) }, carried)
+                }
+                _ => {
+                    let w = backing_wall[i] as usize;
+                    let p = solved[w] + v.density[i] * gravity.dot(&(v.pos[i] - v.pos[w]));
+                    (if clamp { p.max(0.0) } else { p }, carried)
+                }
+            }
+        })
+        .unzip_into_vecs(values, carries);
+    for i in 0..n {
+        if boundary(i) {
+            pressure[i] = values[i];
         }
     }
-    carries
 }
 
-/// Densities (kg/m^3) of every particle after the fluid moved to `v.pos`: walls take that of
-/// their nearest fluid particle within re_lap, dummies that of their backing wall, fluid keeps
-/// its own (equations.md s.4, s.7).
-pub fn wall_densities<const D: usize>(v: &View<D>, backing_wall: &[u32], k: &Kernels) -> Vec<f64> {
-    let walls: Vec<f64> = (0..v.pos.len())
+/// Densities (kg/m^3) of every particle after the fluid moved to `v.pos`, into `out`: walls
+/// take that of their nearest fluid particle within re_lap, dummies that of their backing
+/// wall, fluid keeps its own (equations.md s.4, s.7). `walls` is scratch.
+pub fn wall_densities<const D: usize>(
+    v: &View<D>,
+    backing_wall: &[u32],
+    k: &Kernels,
+    walls: &mut Vec<f64>,
+    out: &mut Vec<f64>,
+) {
+    (0..v.pos.len())
         .into_par_iter()
         .map(|i| {
             if v.kind[i] != Kind::Wall {
@@ -123,13 +123,12 @@ pub fn wall_densities<const D: usize>(v: &View<D>, backing_wall: &[u32], k: &Ker
             }
             best.1
         })
-        .collect();
-    (0..v.pos.len())
-        .map(|i| match v.kind[i] {
-            Kind::Dummy if backing_wall[i] != NONE => walls[backing_wall[i] as usize],
-            _ => walls[i],
-        })
-        .collect()
+        .collect_into_vec(walls);
+    out.clear();
+    out.extend((0..v.pos.len()).map(|i| match v.kind[i] {
+        Kind::Dummy if backing_wall[i] != NONE => walls[backing_wall[i] as usize],
+        _ => walls[i],
+    }));
 }
 
 #[cfg(test)]
@@ -173,15 +172,17 @@ mod tests {
         let lid = 3;
         let run = |top: f64, closed: bool| {
             let mut p = level(top);
-            let carries = boundary_pressures(
+            let (mut values, mut carries) = (Vec::new(), Vec::new());
+            let model = (WallPressure::Extrapolated, false, closed);
+            boundary_pressures(
                 &v,
                 &bw,
-                WallPressure::Extrapolated,
-                false,
-                closed,
+                model,
                 gravity,
                 &k,
                 &mut p,
+                &mut values,
+                &mut carries,
             );
             (p[lid], carries[lid])
         };

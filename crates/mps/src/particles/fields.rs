@@ -197,17 +197,35 @@ macro_rules! particle_fields {
             /// Reorders every array by `order` (new index -> old index); index fields are
             /// remapped to the new numbering.
             pub fn permute(&mut self, order: &[u32]) {
-                let mut inverse = vec![0u32; order.len()];
+                self.permute_into(order, &mut SpareArrays::default(), &mut Vec::new());
+            }
+
+            /// [`Self::permute`], each array gathered into a spare array of `spare` and the
+            /// old one given back to it, the inverse order built in `inverse`: once they have
+            /// grown, nothing is allocated.
+            pub fn permute_into(
+                &mut self,
+                order: &[u32],
+                spare: &mut SpareArrays<D>,
+                inverse: &mut Vec<u32>,
+            ) {
+                inverse.clear();
+                inverse.resize(order.len(), 0);
                 for (new, &old) in order.iter().enumerate() {
                     inverse[old as usize] = new as u32;
                 }
                 $(
-                    self.$name = {
+                    {
                         use rayon::prelude::*;
+                        let mut out: Vec<$ty> = spare.take();
                         let field = &self.$name;
-                        order.par_iter().map(|&o| field[o as usize]).collect()
-                    };
-                    $( stringify!($remap); remap_indices(&mut self.$name, &inverse); )?
+                        order
+                            .par_iter()
+                            .map(|&o| field[o as usize])
+                            .collect_into_vec(&mut out);
+                        spare.give(std::mem::replace(&mut self.$name, out));
+                    }
+                    $( stringify!($remap); remap_indices(&mut self.$name, inverse); )?
                 )*
             }
 
@@ -504,9 +522,72 @@ impl<const D: usize> Particles<D> {
     }
 }
 
+// Spare arrays of the particle fields' element types: a step gives back the arrays it is
+// done with and takes them again for its next results, so a warm step allocates nothing
+// (issue 15; docs/decisions.md, "A step without allocations").
+
+/// Spare arrays by element type.
+#[derive(Debug, Default)]
+pub struct SpareArrays<const D: usize> {
+    vectors: Vec<Vec<Vector<D>>>,
+    scalars: Vec<Vec<f64>>,
+    flags: Vec<Vec<bool>>,
+    indices: Vec<Vec<u32>>,
+    shorts: Vec<Vec<u16>>,
+    kinds: Vec<Vec<Kind>>,
+}
+
+/// An element type [`SpareArrays`] keeps (every particle field's).
+pub trait Spared<const D: usize>: Sized {
+    /// The spare arrays of this type.
+    fn list(spare: &mut SpareArrays<D>) -> &mut Vec<Vec<Self>>;
+}
+
+macro_rules! spared {
+    ($($ty:ty => $list:ident),* $(,)?) => {$(
+        impl<const D: usize> Spared<D> for $ty {
+            fn list(spare: &mut SpareArrays<D>) -> &mut Vec<Vec<Self>> {
+                &mut spare.$list
+            }
+        }
+    )*};
+}
+
+spared!(Vector<D> => vectors, f64 => scalars, bool => flags, u32 => indices, u16 => shorts, Kind => kinds);
+
+impl<const D: usize> SpareArrays<D> {
+    /// A spare array (empty, with the capacity it had), or a new one.
+    pub fn take<T: Spared<D>>(&mut self) -> Vec<T> {
+        let mut v = T::list(self).pop().unwrap_or_default();
+        v.clear();
+        v
+    }
+
+    /// Keeps `v`'s memory for a later [`SpareArrays::take`].
+    pub fn give<T: Spared<D>>(&mut self, v: Vec<T>) {
+        if v.capacity() > 0 {
+            T::list(self).push(v);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An array given back is handed out again, emptied, with its memory; a type with no
+    /// spare array gets a new one.
+    #[test]
+    fn a_given_array_is_taken_again_empty_with_its_memory() {
+        let mut spare = SpareArrays::<2>::default();
+        let v = vec![1.0f64; 1000];
+        let at = v.as_ptr();
+        spare.give(v);
+        let w: Vec<f64> = spare.take();
+        assert!(w.is_empty() && w.capacity() >= 1000 && w.as_ptr() == at);
+        let flags: Vec<bool> = spare.take();
+        assert_eq!(flags.capacity(), 0);
+    }
 
     fn two() -> Particles<2> {
         let mut p = Particles::<2>::default();

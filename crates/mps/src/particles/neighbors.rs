@@ -7,13 +7,21 @@
 use super::vector::Vector;
 use rayon::prelude::*;
 
-/// Neighbour lists of all particles in CSR layout.
+/// Neighbour lists of all particles: particle `i`'s neighbours are `indices[spans[i][0]..
+/// spans[i][1]]`. The lists are built by chunks of particles in parallel, each chunk into its
+/// own region of `indices`, sized from the last build's lists with a little room, so a build
+/// writes every list in place: no list is copied and, once warm, nothing is allocated
+/// (docs/decisions.md, "Neighbour lists in regions").
 #[derive(Clone, Debug, Default)]
 pub struct NeighborList {
-    /// `offsets[i]..offsets[i+1]` indexes `indices` for particle `i`.
-    pub offsets: Vec<u32>,
-    /// Neighbour indices, grouped by particle.
-    pub indices: Vec<u32>,
+    /// Each particle's range in `indices`.
+    spans: Vec<[u32; 2]>,
+    /// Neighbour indices, grouped by particle and by chunk (regions may leave room between).
+    indices: Vec<u32>,
+    /// Directed pairs held.
+    pairs: usize,
+    /// Start of each chunk's region in `indices`, and the end (a build's scratch, kept).
+    regions: Vec<usize>,
     /// Cut-off radius used to build the list (m).
     pub cutoff: f64,
     /// The same lists cut to a smaller radius at the positions of the stages now running
@@ -26,11 +34,22 @@ impl NeighborList {
     /// The neighbours of particle `i`.
     #[inline]
     pub fn of(&self, i: usize) -> &[u32] {
-        &self.indices[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+        let [a, b] = self.spans[i];
+        &self.indices[a as usize..b as usize]
     }
     /// Total number of (directed) neighbour pairs.
     pub fn pairs(&self) -> usize {
-        self.indices.len()
+        self.pairs
+    }
+
+    /// The number of particles the lists are for.
+    pub fn len(&self) -> usize {
+        self.spans.len()
+    }
+
+    /// True when the lists are for no particle.
+    pub fn is_empty(&self) -> bool {
+        self.spans.is_empty()
     }
 
     /// The lists to scan for the pairs within `re` (m): the near lists when they reach that
@@ -54,56 +73,177 @@ impl NeighborList {
 
     /// [`NeighborList::cut_to`] into `out`, reusing its memory.
     pub fn cut_into<const D: usize>(&self, pos: &[Vector<D>], radius: f64, out: &mut NeighborList) {
-        let n = self.offsets.len().saturating_sub(1);
         let far = radius * radius * (1.0 + 1e-9);
         // The share of the full lists expected within `radius` (by volume), with a margin.
         let share = 1.2 * (radius / self.cutoff).min(1.0).powi(D as i32);
-        let (counts, lists) = chunked_lists(
-            n,
-            |a, b| (share * (self.offsets[b] - self.offsets[a]) as f64) as usize + 16,
-            |i, list| {
+        let full = |a: usize, b: usize| self.chunk_entries(a, b);
+        out.fill_by_chunks(
+            self.len(),
+            |a, b| (share * full(a, b) as f64) as usize + 16,
+            |i, sink| {
                 let xi = pos[i];
-                list.extend(
-                    self.of(i)
-                        .iter()
-                        .filter(|&&j| (pos[j as usize] - xi).norm2() <= far),
-                );
+                for &j in self.of(i) {
+                    if (pos[j as usize] - xi).norm2() <= far {
+                        sink.push(j);
+                    }
+                }
             },
         );
-        crate::parallel::offsets_into(&counts, &mut out.offsets);
-        crate::parallel::concat_into(&lists, &mut out.indices);
         out.cutoff = radius;
         out.near = None;
+    }
+
+    /// Entries the lists of particles `a..b` (one chunk) hold: they lie together in its region.
+    fn chunk_entries(&self, a: usize, b: usize) -> usize {
+        if a >= b {
+            return 0;
+        }
+        (self.spans[b - 1][1] - self.spans[a][0]) as usize
+    }
+
+    /// Builds the lists of `n` particles by chunks of [`CHUNK`] in parallel: `fill(i, sink)`
+    /// pushes particle `i`'s neighbours. Each chunk writes into its region, sized from the
+    /// last build's lists of that chunk (with room for 3 % more), or `estimate(a, b)` entries
+    /// for particles `a..b` on a first build; a chunk that outgrows its region is built again
+    /// in a region of its counted size after the others. The lists do not depend on the
+    /// regions or the number of threads.
+    fn fill_by_chunks(
+        &mut self,
+        n: usize,
+        estimate: impl Fn(usize, usize) -> usize + Sync,
+        fill: impl Fn(usize, &mut ChunkSink) + Sync,
+    ) {
+        let chunks = n.div_ceil(CHUNK);
+        let again = self.spans.len() == n;
+        let mut regions = std::mem::take(&mut self.regions);
+        let sizes = |c: usize| {
+            let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
+            if again {
+                let last = self.chunk_entries(a, b);
+                last + last / 32 + 16
+            } else {
+                estimate(a, b)
+            }
+        };
+        (0..chunks)
+            .into_par_iter()
+            .map(sizes)
+            .collect_into_vec(&mut regions);
+        let mut total = 0;
+        for r in regions.iter_mut() {
+            (*r, total) = (total, total + *r);
+        }
+        regions.push(total);
+        self.regions = regions;
+        self.spans.resize(n, [0, 0]);
+        self.room_for(total);
+        fill_regions(
+            0,
+            &self.regions,
+            &mut self.indices[..total],
+            &mut self.spans,
+            &fill,
+        );
+        // Chunks that outgrew their regions: again, in regions of their counted size.
+        self.pairs = 0;
+        let mut end = total;
+        for c in 0..chunks {
+            let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
+            let (start, room) = (self.regions[c], self.regions[c + 1] - self.regions[c]);
+            let need = self.spans[b - 1][1] as usize - start;
+            self.pairs += need;
+            if need > room {
+                // After the regions (and the chunks built again before it).
+                let at = end;
+                end = at + need;
+                self.room_for(end);
+                fill_regions(
+                    c,
+                    &[at, at + need],
+                    &mut self.indices[at..at + need],
+                    &mut self.spans[a..b],
+                    &fill,
+                );
+            }
+        }
+        // A first build's estimate may leave far more room than the lists need: give it
+        // back.
+        let want = end.max(total + total / 8);
+        if self.indices.len() > 2 * want.max(4096) {
+            self.indices.truncate(want);
+            self.indices.shrink_to(want);
+        }
+    }
+
+    /// Makes `indices` at least `len` long, with room to grow by a sixteenth before it must
+    /// move again.
+    fn room_for(&mut self, len: usize) {
+        if self.indices.len() < len {
+            let cap = len + len / 16;
+            self.indices
+                .reserve_exact(cap.saturating_sub(self.indices.len()));
+            self.indices.resize(len, 0);
+        }
+    }
+}
+
+/// Where a chunk's lists go while they are built: its region of the index array, counted
+/// beyond its end (what does not fit is not written; the chunk is then built again).
+pub struct ChunkSink<'a> {
+    region: &'a mut [u32],
+    len: usize,
+}
+
+impl ChunkSink<'_> {
+    /// Appends neighbour `j` to the list being built.
+    #[inline]
+    pub fn push(&mut self, j: u32) {
+        if let Some(slot) = self.region.get_mut(self.len) {
+            *slot = j;
+        }
+        self.len += 1;
+    }
+}
+
+/// Runs `fill` over the chunks `first..` whose regions start at `starts[..k]` (absolute,
+/// `starts[k]` the end; `indices` the slice from `starts[0]` to it, `spans` their particles),
+/// halving the chunks onto the pool's threads.
+fn fill_regions(
+    first: usize,
+    starts: &[usize],
+    indices: &mut [u32],
+    spans: &mut [[u32; 2]],
+    fill: &(impl Fn(usize, &mut ChunkSink) + Sync),
+) {
+    let k = starts.len() - 1;
+    if k > 1 {
+        let m = k / 2;
+        let (ia, ib) = indices.split_at_mut(starts[m] - starts[0]);
+        let (sa, sb) = spans.split_at_mut((m * CHUNK).min(spans.len()));
+        rayon::join(
+            || fill_regions(first, &starts[..=m], ia, sa, fill),
+            || fill_regions(first + m, &starts[m..], ib, sb, fill),
+        );
+        return;
+    }
+    if k == 0 {
+        return;
+    }
+    let (a, base) = (first * CHUNK, starts[0]);
+    let mut sink = ChunkSink {
+        region: indices,
+        len: 0,
+    };
+    for (k, span) in spans.iter_mut().enumerate() {
+        let start = sink.len;
+        fill(a + k, &mut sink);
+        *span = [(base + start) as u32, (base + sink.len) as u32];
     }
 }
 
 /// Particles per parallel work unit of the list builders (docs/decisions.md, "Parallel chunk
 /// sizes").
 const CHUNK: usize = 512;
-
-/// Builds lists of `n` particles by chunks in parallel: `capacity(a, b)` entries reserved for
-/// particles `a..b`, `fill(i, list)` appends particle `i`'s neighbours. Returns the per-chunk
-/// list lengths and lists, in particle order.
-fn chunked_lists(
-    n: usize,
-    capacity: impl Fn(usize, usize) -> usize + Sync,
-    fill: impl Fn(usize, &mut Vec<u32>) + Sync,
-) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
-    (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let (a, b) = (c * CHUNK, ((c + 1) * CHUNK).min(n));
-            let mut counts = Vec::with_capacity(b - a);
-            let mut list = Vec::with_capacity(capacity(a, b));
-            for i in a..b {
-                let before = list.len();
-                fill(i, &mut list);
-                counts.push((list.len() - before) as u32);
-            }
-            (counts, list)
-        })
-        .unzip()
-}
 
 /// A uniform grid of cells of side `cell` covering the particles' bounding box.
 #[derive(Clone, Debug)]
@@ -117,6 +257,28 @@ pub struct CellGrid<const D: usize> {
     sorted: Vec<u32>,
     /// The points in that order (m), so a search streams through memory.
     sorted_points: Vec<Vector<D>>,
+    /// Each point's cell (a build's scratch, kept).
+    keys: Vec<u32>,
+    /// Each cell's next free slot while binning (a build's scratch, kept).
+    next: Vec<u32>,
+    /// Per cell, whether it holds a marked point (`mark_cells_holding`).
+    holding: Vec<bool>,
+}
+
+impl<const D: usize> Default for CellGrid<D> {
+    fn default() -> Self {
+        CellGrid {
+            origin: Vector([0.0; D]),
+            cell: 1.0,
+            dims: [1; D],
+            start: Vec::new(),
+            sorted: Vec::new(),
+            sorted_points: Vec::new(),
+            keys: Vec::new(),
+            next: Vec::new(),
+            holding: Vec::new(),
+        }
+    }
 }
 
 /// Most cells a grid may have; a larger extent (a runaway particle) coarsens the cells.
@@ -127,6 +289,18 @@ impl<const D: usize> CellGrid<D> {
     /// within `bounds` (m), when given: points beyond it (particles that left the domain) go
     /// to the border cells, so a runaway particle cannot size the grid.
     pub fn build(points: &[Vector<D>], cell: f64, bounds: Option<(Vector<D>, Vector<D>)>) -> Self {
+        let mut grid = CellGrid::default();
+        grid.rebuild(points, cell, bounds);
+        grid
+    }
+
+    /// [`CellGrid::build`] into this grid, reusing its memory.
+    pub fn rebuild(
+        &mut self,
+        points: &[Vector<D>],
+        cell: f64,
+        bounds: Option<(Vector<D>, Vector<D>)>,
+    ) {
         let far = (Vector([f64::MAX; D]), Vector([f64::MIN; D]));
         let (mut lo, mut hi) = points
             .par_iter()
@@ -155,33 +329,35 @@ impl<const D: usize> CellGrid<D> {
         for k in 0..D {
             dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize + 1).max(1);
         }
-        let mut grid = CellGrid {
-            origin: lo,
-            cell,
-            dims,
-            start: Vec::new(),
-            sorted: Vec::new(),
-            sorted_points: Vec::new(),
-        };
+        (self.origin, self.cell, self.dims) = (lo, cell, dims);
         let ncell: usize = dims.iter().product();
-        let keys: Vec<u32> = points.par_iter().map(|p| grid.cell_of(p) as u32).collect();
-        let mut count = vec![0u32; ncell + 1];
+        let mut keys = std::mem::take(&mut self.keys);
+        points
+            .par_iter()
+            .map(|p| self.cell_of(p) as u32)
+            .collect_into_vec(&mut keys);
+        let count = &mut self.start;
+        count.clear();
+        count.resize(ncell + 1, 0);
         for &k in &keys {
             count[k as usize + 1] += 1;
         }
         for c in 0..ncell {
             count[c + 1] += count[c];
         }
-        let mut fill = count.clone();
-        let mut sorted = vec![0u32; points.len()];
+        self.next.clear();
+        self.next.extend_from_slice(count);
+        self.sorted.clear();
+        self.sorted.resize(points.len(), 0);
         for (i, &k) in keys.iter().enumerate() {
-            sorted[fill[k as usize] as usize] = i as u32;
-            fill[k as usize] += 1;
+            self.sorted[self.next[k as usize] as usize] = i as u32;
+            self.next[k as usize] += 1;
         }
-        grid.sorted_points = sorted.par_iter().map(|&i| points[i as usize]).collect();
-        grid.start = count;
-        grid.sorted = sorted;
-        grid
+        self.keys = keys;
+        self.sorted
+            .par_iter()
+            .map(|&i| points[i as usize])
+            .collect_into_vec(&mut self.sorted_points);
     }
 
     #[inline]
@@ -214,21 +390,24 @@ impl<const D: usize> CellGrid<D> {
         self.linear(&c).unwrap_or(0)
     }
 
-    /// Per cell, whether it holds a point with `marked[i]`.
-    fn cells_holding(&self, marked: &[bool]) -> Vec<bool> {
+    /// Marks, per cell, whether it holds a point with `marked[i]` (for `block_holds`).
+    fn mark_cells_holding(&mut self, marked: &[bool]) {
         let ncell = self.start.len() - 1;
+        let mut holding = std::mem::take(&mut self.holding);
         (0..ncell)
             .into_par_iter()
             .map(|c| {
                 let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
                 self.sorted[a..b].iter().any(|&i| marked[i as usize])
             })
-            .collect()
+            .collect_into_vec(&mut holding);
+        self.holding = holding;
     }
 
-    /// Whether any of the 3^D cells around `p` is flagged in `cells` (from `cells_holding`):
+    /// Whether any of the 3^D cells around `p` holds a marked point (`mark_cells_holding`):
     /// with cells of the cut-off's side, false means no marked point within the cut-off.
-    fn block_holds(&self, p: &Vector<D>, cells: &[bool]) -> bool {
+    fn block_holds(&self, p: &Vector<D>) -> bool {
+        let cells = &self.holding;
         let c = self.coords_of(p);
         (0..3usize.pow(D as u32)).any(|n| {
             let mut rem = n;
@@ -297,7 +476,14 @@ pub fn build_neighbor_list_within<const D: usize>(
     bounds: Option<(Vector<D>, Vector<D>)>,
 ) -> NeighborList {
     let mut out = NeighborList::default();
-    build_lists(points, cutoff, bounds, None, &mut out);
+    build_lists(
+        points,
+        cutoff,
+        bounds,
+        None,
+        &mut CellGrid::default(),
+        &mut out,
+    );
     out
 }
 
@@ -323,21 +509,30 @@ pub fn build_neighbor_list_near<const D: usize>(
     needs: ListNeeds,
 ) -> NeighborList {
     let mut out = NeighborList::default();
-    build_lists(points, cutoff, bounds, Some(needs), &mut out);
+    build_lists(
+        points,
+        cutoff,
+        bounds,
+        Some(needs),
+        &mut CellGrid::default(),
+        &mut out,
+    );
     out
 }
 
 /// [`build_neighbor_list_near`] into `out`, reusing the memory of the lists it held (a
 /// list of a million particles is larger than the blocks the allocator keeps, and a fresh
-/// one is faulted in page by page; its old lists, near lists included, are dropped).
+/// one is faulted in page by page; its old lists, near lists included, are dropped), on
+/// `grid`'s memory.
 pub fn build_neighbor_list_near_into<const D: usize>(
     points: &[Vector<D>],
     cutoff: f64,
     bounds: Option<(Vector<D>, Vector<D>)>,
     needs: ListNeeds,
+    grid: &mut CellGrid<D>,
     out: &mut NeighborList,
 ) {
-    build_lists(points, cutoff, bounds, Some(needs), out);
+    build_lists(points, cutoff, bounds, Some(needs), grid, out);
 }
 
 fn build_lists<const D: usize>(
@@ -345,31 +540,35 @@ fn build_lists<const D: usize>(
     cutoff: f64,
     bounds: Option<(Vector<D>, Vector<D>)>,
     needs: Option<ListNeeds>,
+    grid: &mut CellGrid<D>,
     out: &mut NeighborList,
 ) {
     out.near = None;
-    let grid = CellGrid::build(points, cutoff, bounds);
+    grid.rebuild(points, cutoff, bounds);
+    if let Some(nd) = needs {
+        grid.mark_cells_holding(nd.moving);
+    }
+    let grid = &*grid;
     let n = points.len();
     let c2 = cutoff * cutoff;
-    let reached = needs.map(|nd| (nd, grid.cells_holding(nd.moving)));
-    // Room for the lists of a chunk, so that they seldom grow (and copy) as they fill: the
-    // mean points per cell times the share of the 3^D cells scanned that the cut-off sphere
-    // covers (0.35 in 2D, 0.16 in 3D), with a margin; at least 40 a point.
+    // Room for the lists of a chunk on a first build: the mean points per cell times the
+    // share of the 3^D cells scanned that the cut-off sphere covers (0.35 in 2D, 0.16 in
+    // 3D), with a margin; at least 40 a point.
     let per_cell = n as f64 / (grid.start.len() - 1).max(1) as f64;
     let share = if D == 3 { 0.16 } else { 0.35 };
     let expected = (1.3 * share * per_cell * 3f64.powi(D as i32)).ceil() as usize + 8;
-    let (counts, lists) = chunked_lists(
+    out.fill_by_chunks(
         n,
         |a, b| (b - a) * expected.clamp(40, 4096),
-        |i, list| {
-            if let Some((nd, cells)) = &reached {
-                if !nd.moving[i] && !grid.block_holds(&points[i], cells) {
+        |i, sink| {
+            if let Some(nd) = &needs {
+                if !nd.moving[i] && !grid.block_holds(&points[i]) {
                     return;
                 }
                 if nd.apart[i] {
                     grid.for_each_within(&points[i], c2, |j| {
                         if !nd.apart[j as usize] {
-                            list.push(j);
+                            sink.push(j);
                         }
                     });
                     return;
@@ -377,13 +576,11 @@ fn build_lists<const D: usize>(
             }
             grid.for_each_within(&points[i], c2, |j| {
                 if j as usize != i {
-                    list.push(j);
+                    sink.push(j);
                 }
             })
         },
     );
-    crate::parallel::offsets_into(&counts, &mut out.offsets);
-    crate::parallel::concat_into(&lists, &mut out.indices);
     out.cutoff = cutoff;
 }
 
@@ -400,6 +597,18 @@ pub fn locality_order<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `n` points spread evenly at random over [0, 1] x [0, 0.5] (a fixed LCG from `seed`).
+    fn random_points(n: usize, seed: u64) -> Vec<Vector<2>> {
+        let mut s = seed;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n).map(|_| Vector([next(), next() * 0.5])).collect()
+    }
 
     /// A runaway particle far outside the bounds (or not finite) neither sizes the grid nor
     /// breaks the search; the others still find each other.
@@ -425,17 +634,7 @@ mod tests {
     /// radius reads the full lists.
     #[test]
     fn near_lists_give_the_pair_loop_the_same_pairs_in_the_same_order() {
-        let mut pts = Vec::new();
-        let mut s = 987654321u64;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for _ in 0..400 {
-            pts.push(Vector([next(), next() * 0.5]));
-        }
+        let pts = random_points(400, 987654321);
         let mut nl = build_neighbor_list(&pts, 0.1);
         let near = nl.cut_to(&pts, 0.06);
         for i in 0..pts.len() {
@@ -501,6 +700,39 @@ mod tests {
         assert!(kept >= 5 * 6 && near.pairs() < full.pairs() / 2);
     }
 
+    /// Lists rebuilt into the memory of earlier ones equal fresh lists, whether they grew
+    /// past their regions' room (those chunks built again at the end), shrank, or the
+    /// particle count changed; the same for lists cut into reused memory.
+    #[test]
+    fn lists_rebuilt_in_place_equal_fresh_ones() {
+        let pts = random_points(3000, 424242);
+        let (mut nl, mut cut, mut grid) = (
+            NeighborList::default(),
+            NeighborList::default(),
+            CellGrid::default(),
+        );
+        let same = |a: &NeighborList, b: &NeighborList| {
+            assert_eq!((a.len(), a.pairs()), (b.len(), b.pairs()));
+            for i in 0..a.len() {
+                assert_eq!(a.of(i), b.of(i), "particle {i}");
+            }
+        };
+        for (n, cutoff) in [
+            (3000, 0.03),
+            (3000, 0.05),
+            (3000, 0.02),
+            (1000, 0.04),
+            (3000, 0.04),
+        ] {
+            let p = &pts[..n];
+            build_lists(p, cutoff, None, None, &mut grid, &mut nl);
+            let fresh = build_neighbor_list(p, cutoff);
+            same(&nl, &fresh);
+            nl.cut_into(p, 0.6 * cutoff, &mut cut);
+            same(&cut, &fresh.cut_to(p, 0.6 * cutoff));
+        }
+    }
+
     #[test]
     fn cell_list_finds_the_same_pairs_as_brute_force() {
         let mut pts = Vec::new();
@@ -520,7 +752,7 @@ mod tests {
         // A grid limited to a box holding every point finds the same pairs.
         let within =
             build_neighbor_list_within(&pts, 0.07, Some((Vector([0.0, 0.0]), Vector([1.0, 0.5]))));
-        assert_eq!(within.indices.len(), nl.indices.len());
+        assert_eq!(within.pairs(), nl.pairs());
         for i in 0..pts.len() {
             let mut got: Vec<u32> = nl.of(i).to_vec();
             got.sort();

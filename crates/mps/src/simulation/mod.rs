@@ -10,6 +10,7 @@ pub mod domain;
 pub mod memory;
 pub mod pressure_solver;
 pub mod relax;
+mod spare;
 mod stages;
 pub mod time_step;
 pub mod timers;
@@ -99,10 +100,16 @@ pub struct Simulation<const D: usize> {
     /// Fluid particles removed so far after leaving the domain (`domain.outflow`).
     pub outflow_removed: u64,
     neighbors: NeighborList,
+    /// The neighbour search's memory, kept between steps: its cell grid and particle masks.
+    search: NeighborSearch<D>,
+    /// The stages' vectors, kept between steps.
+    spare: spare::Spare<D>,
     /// The memory of the last step's near lists (`NeighborList::near`), for the next step's.
     spare_near: Option<Box<NeighborList>>,
-    /// The particles at the start of the step (restored on breakdown; its memory reused).
-    backup: Particles<D>,
+    /// What the running step changed in the particles before its end, undone on breakdown.
+    undo: Undo,
+    /// The densities before the step's stage 3 set the walls' (restored on breakdown).
+    density_before: Vec<f64>,
     skin: f64,
     /// The last PPE had no Dirichlet row (a closed domain, its level from the reference).
     closed: bool,
@@ -196,9 +203,12 @@ impl<const D: usize> Simulation<D> {
             last: StepReport::default(),
             last_system: None,
             neighbors: NeighborList::default(),
-            backup: Particles::default(),
+            undo: Undo::default(),
+            density_before: Vec::new(),
             skin: SKIN * l0,
             spare_near: None,
+            search: NeighborSearch::default(),
+            spare: Default::default(),
             outflow_removed: 0,
             closed: false,
             domain: std::sync::Mutex::new(None),
@@ -220,7 +230,7 @@ impl<const D: usize> Simulation<D> {
     /// Advances one step, stopping at `until` (s) if it comes first. On breakdown the
     /// particles are restored to the last good state and the reason is returned.
     pub fn step(&mut self, until: f64) -> Result<StepReport, Breakdown> {
-        self.backup.copy_from(&self.particles);
+        self.undo = Undo::default();
         match self.advance(until) {
             Ok(r) => {
                 self.last = r;
@@ -237,7 +247,7 @@ impl<const D: usize> Simulation<D> {
                 Ok(r)
             }
             Err(f) => {
-                std::mem::swap(&mut self.particles, &mut self.backup);
+                self.undo_step();
                 // A stage that failed after stage 3 leaves the near lists cut at r*.
                 self.drop_near_lists();
                 Err(Breakdown {
@@ -287,7 +297,7 @@ impl<const D: usize> Simulation<D> {
             let mut carries = s.boundary_pressures(&pred, &surf, &mut pressure);
             s.refresh_scalars(&mut pressure);
             s.refresh_flags(&mut carries);
-            let mut acc = s.pressure_acceleration(&pred, &surf, &density, &pressure, &carries);
+            let mut acc = s.pressure_acceleration(&pred, &surf, &density, &pressure, carries);
             s.refresh_vectors(&mut acc);
             let (ds_acc, ds_active) = s.stabilize(&pred, &surf, &acc, dt);
             report.ds_active = s.sum(ds_active);
@@ -306,9 +316,35 @@ impl<const D: usize> Simulation<D> {
                 dt,
             )
         })?;
+        self.recycle([Some(acc), ds_acc, shifts], density);
         // 7. Outflow: fluid beyond the domain leaves the run (when the case says so).
         report.removed = self.timed(Stage::Correction, |s| s.remove_outflow());
         Ok(report)
+    }
+
+    /// Keeps the step's accelerations, shifts and smoothed densities for the next step.
+    fn recycle(&self, vectors: [Option<Vec<Vector<D>>>; 3], density: Option<Vec<f64>>) {
+        for v in vectors.into_iter().flatten() {
+            self.spare.give(v);
+        }
+        if let Some(d) = density {
+            self.spare.give(d);
+        }
+    }
+
+    /// Restores the particles to the state before a step that failed: the step wrote them
+    /// only in its reordering (stage 1) and the walls' densities (stage 3); its results
+    /// (stage 6) are written only when the new state passed its checks.
+    fn undo_step(&mut self) {
+        if self.undo.density {
+            std::mem::swap(&mut self.particles.density, &mut self.density_before);
+        }
+        if self.undo.reordered {
+            self.particles.permute(&self.search.inverse);
+            // The lists were built in the reordered numbering.
+            self.rebuild_neighbors();
+        }
+        self.undo = Undo::default();
     }
 
     /// Runs `f` and adds its wall-clock time to `stage`.
@@ -388,27 +424,49 @@ impl<const D: usize> Simulation<D> {
     /// pair loop visits, get none (docs/decisions.md, "Lists only within the fluid's reach").
     fn neighbors_at(&self, pos: &[Vector<D>]) -> NeighborList {
         let mut out = NeighborList::default();
-        self.neighbors_into(pos, &mut out);
+        self.neighbors_into(pos, &mut NeighborSearch::default(), &mut out);
         out
     }
 
-    /// [`Self::neighbors_at`] into `out`, reusing the memory of the lists it held.
-    fn neighbors_into(&self, pos: &[Vector<D>], out: &mut NeighborList) {
+    /// [`Self::neighbors_at`] into `out`, reusing the memory of the lists it held and of
+    /// `search`.
+    fn neighbors_into(
+        &self,
+        pos: &[Vector<D>],
+        search: &mut NeighborSearch<D>,
+        out: &mut NeighborList,
+    ) {
         let kind = &self.particles.kind;
         use rayon::prelude::*;
-        let fluid: Vec<bool> = kind.par_iter().map(|k| *k == Kind::Fluid).collect();
-        let dummy: Vec<bool> = kind.par_iter().map(|k| *k == Kind::Dummy).collect();
+        let NeighborSearch {
+            grid, fluid, dummy, ..
+        } = search;
+        kind.par_iter()
+            .map(|k| *k == Kind::Fluid)
+            .collect_into_vec(fluid);
+        kind.par_iter()
+            .map(|k| *k == Kind::Dummy)
+            .collect_into_vec(dummy);
         let needs = crate::particles::neighbors::ListNeeds {
-            moving: &fluid,
-            apart: &dummy,
+            moving: fluid,
+            apart: dummy,
         };
         crate::particles::neighbors::build_neighbor_list_near_into(
             pos,
             self.cutoff(),
             self.grid_bounds(),
             needs,
+            grid,
             out,
         );
+    }
+
+    /// Rebuilds the neighbour lists at positions `pos` (m) in their own memory.
+    fn renew_neighbors(&mut self, pos: &[Vector<D>]) {
+        let mut lists = std::mem::take(&mut self.neighbors);
+        let mut search = std::mem::take(&mut self.search);
+        self.neighbors_into(pos, &mut search, &mut lists);
+        (self.neighbors, self.search) = (lists, search);
     }
 
     /// Recomputes number density, free-surface flags and wall pressures at the current
@@ -504,4 +562,27 @@ impl<const D: usize> Simulation<D> {
         }
         (sw > 0.0).then(|| swp / sw)
     }
+}
+
+/// What a step changed in the particles before its end (undone on breakdown).
+#[derive(Clone, Copy, Debug, Default)]
+struct Undo {
+    /// Stage 1 reordered them (by `NeighborSearch::order`).
+    reordered: bool,
+    /// Stage 3 set the walls' densities (the old ones in `Simulation::density_before`).
+    density: bool,
+}
+
+/// The memory of the neighbour search and the reordering, kept between steps.
+#[derive(Default)]
+struct NeighborSearch<const D: usize> {
+    /// The cell grid.
+    grid: crate::particles::neighbors::CellGrid<D>,
+    /// Which particles are fluid (they always get lists).
+    fluid: Vec<bool>,
+    /// Which particles are dummies (their lists leave out the other dummies).
+    dummy: Vec<bool>,
+    /// The last reordering (new index -> old index) and its inverse.
+    order: Vec<u32>,
+    inverse: Vec<u32>,
 }

@@ -4,8 +4,8 @@
 
 use crate::input::case::SolverSpec;
 use crate::linalg::{
-    dilu_cg, pcg, Amg, AmgParams, Dilu, Ic0, Identity, Jacobi, NotConverged, SolveStats,
-    DILU_OMEGA, MIC_OMEGA,
+    dilu_cg, pcg_in, Amg, AmgParams, CgVectors, Dilu, Ic0, Identity, Jacobi, Mic0Scratch,
+    NotConverged, SolveStats, DILU_OMEGA, MIC_OMEGA,
 };
 use crate::linalg::{Precondition, SolverKind};
 use crate::numerics::ppe::PressureSystem;
@@ -57,6 +57,11 @@ pub struct PressureSolver {
     dimension: usize,
     max_iterations: usize,
     amg: Option<AmgCache>,
+    /// The last MIC(0) factor and its set-up's scratch, whose memory the next set-up uses.
+    mic: Ic0,
+    mic_scratch: Mic0Scratch,
+    /// CG's work vectors.
+    cg: CgVectors,
     last_iterations: usize,
     /// Steps whose preconditioner fell back to Jacobi.
     pub fallbacks: u64,
@@ -81,11 +86,11 @@ fn timed_pcg(
     sys: &PressureSystem,
     x: &mut [f64],
     m: &(impl Precondition + ?Sized),
-    tol: f64,
-    max_iter: usize,
+    (tol, max_iter): (f64, usize),
+    work: &mut CgVectors,
 ) -> (Result<SolveStats, NotConverged>, Duration) {
     let t = Instant::now();
-    let r = pcg(&sys.matrix, &sys.rhs, x, m, tol, max_iter);
+    let r = pcg_in(&sys.matrix, &sys.rhs, x, m, (tol, max_iter), work);
     (r, t.elapsed())
 }
 
@@ -97,6 +102,9 @@ impl PressureSolver {
             dimension,
             max_iterations: spec.max_iterations,
             amg: None,
+            mic: Ic0::default(),
+            mic_scratch: Mic0Scratch::default(),
+            cg: CgVectors::default(),
             last_iterations: 0,
             fallbacks: 0,
         }
@@ -126,15 +134,23 @@ impl PressureSolver {
             SolverKind::AmgCg => self.solve_amg(sys, x, ids, tol, t0, &mut report),
             SolverKind::Ic0Cg => Ic0::new(&sys.matrix).map(|f| {
                 report.setup = t0.elapsed();
-                timed_pcg(sys, x, &f, tol, max_iter)
+                timed_pcg(sys, x, &f, (tol, max_iter), &mut self.cg)
             }),
             // Modified IC(0); where a relaxed pivot is not positive, plain IC(0).
-            SolverKind::Mic0Cg => Ic0::modified(&sys.matrix, MIC_OMEGA)
-                .or_else(|| Ic0::new(&sys.matrix))
-                .map(|f| {
+            SolverKind::Mic0Cg => {
+                // Set up in the last factor's memory.
+                let mut mic = std::mem::take(&mut self.mic);
+                let f = match mic.modify_from(&sys.matrix, MIC_OMEGA, &mut self.mic_scratch) {
+                    true => Some(mic),
+                    false => Ic0::new(&sys.matrix),
+                };
+                let solved = f.as_ref().map(|f| {
                     report.setup = t0.elapsed();
-                    timed_pcg(sys, x, &f, tol, max_iter)
-                }),
+                    timed_pcg(sys, x, f, (tol, max_iter), &mut self.cg)
+                });
+                self.mic = f.unwrap_or_default();
+                solved
+            }
             // Modified D-ILU; where a relaxed pivot is not positive, plain D-ILU.
             SolverKind::DiluCg => Dilu::new(&sys.matrix, DILU_OMEGA)
                 .or_else(|| Dilu::new(&sys.matrix, 0.0))
@@ -146,7 +162,7 @@ impl PressureSolver {
                 }),
             SolverKind::Cg => {
                 report.setup = t0.elapsed();
-                Some(timed_pcg(sys, x, &Identity, tol, max_iter))
+                Some(timed_pcg(sys, x, &Identity, (tol, max_iter), &mut self.cg))
             }
             _ => None,
         };
@@ -157,7 +173,7 @@ impl PressureSolver {
             }
             let pre = Jacobi::new(&sys.matrix);
             report.setup = t0.elapsed();
-            timed_pcg(sys, x, &pre, tol, max_iter)
+            timed_pcg(sys, x, &pre, (tol, max_iter), &mut self.cg)
         });
         self.finish(result, solve, report)
     }
@@ -215,13 +231,13 @@ impl PressureSolver {
             if reused {
                 c.age += 1;
                 report.setup = t0.elapsed();
-                return Some(timed_pcg(sys, x, &c.amg, tol, max_iter));
+                return Some(timed_pcg(sys, x, &c.amg, (tol, max_iter), &mut self.cg));
             }
         }
         self.amg = None;
         let amg = Amg::new(&sys.matrix, AmgParams::for_dimension(self.dimension))?;
         report.setup = t0.elapsed();
-        let (r, solve) = timed_pcg(sys, x, &amg, tol, max_iter);
+        let (r, solve) = timed_pcg(sys, x, &amg, (tol, max_iter), &mut self.cg);
         if let Ok(st) = r {
             let mut cache = AmgCache {
                 ids: Vec::new(),
@@ -257,7 +273,7 @@ impl AmgCache {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::linalg::CsrMatrix;
+    use crate::linalg::{pcg, CsrMatrix};
 
     /// An MPS-like 2D Laplacian (unit coefficients on the 8 nearest lattice neighbours plus a
     /// small diagonal shift, `m x m` unknowns) and a right-hand side of a relative density

@@ -15,7 +15,6 @@ use crate::numerics::shifting::shift;
 use crate::numerics::stabilization::ds_acceleration;
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
-use crate::particles::neighbors::locality_order;
 use crate::particles::{Kind, Vector, View, NONE};
 use rayon::prelude::*;
 
@@ -65,8 +64,17 @@ impl<const D: usize> Simulation<D> {
 
     /// Sorts the particles along the cells of the neighbour grid.
     pub(super) fn reorder(&mut self) {
-        let order = locality_order(&self.particles.position, self.cutoff(), self.grid_bounds());
-        self.particles.permute(&order);
+        let mut search = std::mem::take(&mut self.search);
+        let grid = &mut search.grid;
+        grid.rebuild(&self.particles.position, self.cutoff(), self.grid_bounds());
+        search.order.clear();
+        search.order.extend_from_slice(grid.cell_order());
+        let (order, inverse) = (&search.order, &mut search.inverse);
+        let mut spare = self.spare.lock();
+        self.particles.permute_into(order, &mut spare, inverse);
+        drop(spare);
+        self.search = search;
+        self.undo.reordered = true;
     }
 
     /// Stage 1: neighbour lists at `r^n` (with a skin), reordering every few steps.
@@ -81,9 +89,9 @@ impl<const D: usize> Simulation<D> {
         }
         // Built into the old lists' memory (a fresh list of a million particles would be
         // faulted in page by page every step: docs/decisions.md, "Neighbour lists in place").
-        let mut lists = std::mem::take(&mut self.neighbors);
-        self.neighbors_into(&self.particles.position, &mut lists);
-        self.neighbors = lists;
+        let pos = std::mem::take(&mut self.particles.position);
+        self.renew_neighbors(&pos);
+        self.particles.position = pos;
     }
 
     /// Stage 2: `u* = u + dt (nu lap u + g + a_tension + a_repulsion)`, `r* = r + dt u*` for
@@ -95,7 +103,11 @@ impl<const D: usize> Simulation<D> {
         let g = self.gravity;
         let tension = self.surface_tension();
         let at_r = self.view_of(&p.position, &p.velocity, None, None);
-        let (vel, pos) = (0..p.len())
+        let mut pred = Predicted {
+            pos: self.spare.take(),
+            vel: self.spare.take(),
+        };
+        (0..p.len())
             .into_par_iter()
             .map(|i| {
                 if p.kind[i] != Kind::Fluid {
@@ -115,8 +127,8 @@ impl<const D: usize> Simulation<D> {
                 let u = p.velocity[i] + a * dt;
                 (u, p.position[i] + u * dt)
             })
-            .unzip();
-        Predicted { pos, vel }
+            .unzip_into_vecs(&mut pred.vel, &mut pred.pos);
+        pred
     }
 
     /// Stage 2a: the interfacial-tension accelerations at `r` (`None` without interfaces).
@@ -149,11 +161,7 @@ impl<const D: usize> Simulation<D> {
             return Err(BreakdownReason::NotFinite.into());
         }
         if 2.0 * max_move > self.skin {
-            self.timed(Stage::Neighbors, |s| {
-                let mut lists = std::mem::take(&mut s.neighbors);
-                s.neighbors_into(&pred.pos, &mut lists);
-                s.neighbors = lists;
-            });
+            self.timed(Stage::Neighbors, |s| s.renew_neighbors(&pred.pos));
         }
         Ok(())
     }
@@ -162,11 +170,12 @@ impl<const D: usize> Simulation<D> {
     /// the number of treated pairs.
     pub(super) fn collide(&self, pred: &mut Predicted<D>, c: Collision, dt: f64) -> u64 {
         let v = self.view_of(&pred.pos, &pred.vel, None, None);
-        let (vel, n) = collide(&v, c.alpha * self.l0(), c.restitution);
+        let mut vel = self.spare.take();
+        let n = collide(&v, c.alpha * self.l0(), c.restitution, &mut vel);
         for i in 0..pred.pos.len() {
             pred.pos[i] += (vel[i] - pred.vel[i]) * dt;
         }
-        pred.vel = vel;
+        self.spare.give(std::mem::replace(&mut pred.vel, vel));
         n
     }
 
@@ -180,10 +189,11 @@ impl<const D: usize> Simulation<D> {
         let mut near = self.spare_near.take().unwrap_or_default();
         self.neighbors.cut_into(pos, re, &mut near);
         self.neighbors.near = Some(near);
-        let nd: Vec<f64> = (0..pos.len())
+        let mut nd = self.spare.take();
+        (0..pos.len())
             .into_par_iter()
             .map(|i| number_density(i, pos, &self.neighbors, re))
-            .collect();
+            .collect_into_vec(&mut nd);
         let input = SurfaceInput {
             pos,
             neighbors: &self.neighbors,
@@ -191,16 +201,18 @@ impl<const D: usize> Simulation<D> {
             kernels: &self.kernels,
         };
         let s = &self.scheme;
-        let free_surface = if self.full {
-            vec![false; pos.len()]
+        let mut free_surface = self.spare.take();
+        if self.full {
+            free_surface.resize(pos.len(), false);
         } else {
             detect(
                 &s.surface,
                 &input,
                 &self.particles.kind,
                 s.wall_surface_test,
-            )
-        };
+                &mut free_surface,
+            );
+        }
         DensitySurface {
             number_density: nd,
             free_surface,
@@ -218,9 +230,16 @@ impl<const D: usize> Simulation<D> {
     /// Stage 3b: densities of wall and dummy particles from the fluid at `pos`.
     pub(super) fn update_wall_density(&mut self, pos: &[Vector<D>]) {
         let v = self.view_of(pos, pos, None, None);
-        let mut density = wall_densities(&v, &self.particles.backing_wall, &self.kernels);
+        let (mut walls, mut density) = (self.spare.take(), self.spare.take());
+        let bw = &self.particles.backing_wall;
+        wall_densities(&v, bw, &self.kernels, &mut walls, &mut density);
+        self.spare.give(walls);
         self.refresh_scalars(&mut density);
-        self.particles.density = density;
+        // The step's only change to the particles before stage 6: undone on breakdown.
+        let old = std::mem::replace(&mut self.particles.density, density);
+        self.spare
+            .give(std::mem::replace(&mut self.density_before, old));
+        self.undo.density = true;
     }
 
     /// The densities of the PPE coefficient and the gradient: smoothed when the scheme says
@@ -345,11 +364,8 @@ impl<const D: usize> Simulation<D> {
     ) -> Result<Vec<f64>, Failure> {
         let tol = self.solve_tolerance(&sys, dt);
         let p = &self.particles;
-        let mut x: Vec<f64> = sys
-            .particle_of
-            .iter()
-            .map(|&i| p.pressure[i as usize])
-            .collect();
+        let mut x: Vec<f64> = self.spare.take();
+        x.extend(sys.particle_of.iter().map(|&i| p.pressure[i as usize]));
         let t = std::time::Instant::now();
         let (result, solved) = match self.solve_across(&sys, &mut x, tol) {
             Some(r) => {
@@ -371,6 +387,7 @@ impl<const D: usize> Simulation<D> {
         report.solve = solved.stats;
         report.solver_fallback = solved.fallback;
         if result.is_err() {
+            self.spare.give(x);
             return Err(BreakdownReason::SolverDiverged {
                 iterations: solved.stats.iterations,
                 residual: solved.stats.residual,
@@ -385,7 +402,8 @@ impl<const D: usize> Simulation<D> {
             Some((r, value)) => (r as usize, value),
             None => (usize::MAX, 0.0),
         };
-        let pressure = (0..sys.row_of.len())
+        let mut pressure = self.spare.take();
+        (0..sys.row_of.len())
             .into_par_iter()
             .map(|i| {
                 let p = match sys.row_of[i] {
@@ -400,7 +418,8 @@ impl<const D: usize> Simulation<D> {
                     p
                 }
             })
-            .collect();
+            .collect_into_vec(&mut pressure);
+        self.spare.give(x);
         // Kept: the next step assembles into its memory (docs/decisions.md, "Reused PPE
         // buffers"), and benchmarks read it.
         self.last_system = Some(sys);
@@ -450,30 +469,36 @@ impl<const D: usize> Simulation<D> {
         let (model, clamp) = (s.wall_pressure, s.clamp_negative_pressure);
         let bw = &self.particles.backing_wall;
         let (g, k) = (self.gravity, &self.kernels);
-        boundary_pressures(&v, bw, model, clamp, self.closed, g, k, pressure)
+        let (mut carries, mut values) = (self.spare.take(), self.spare.take());
+        let model = (model, clamp, self.closed);
+        boundary_pressures(&v, bw, model, g, k, pressure, &mut values, &mut carries);
+        self.spare.give(values);
+        carries
     }
 
-    /// Stage 5b: pressure acceleration `-grad p / rho` of every fluid particle (m/s^2).
+    /// Stage 5b: pressure acceleration `-grad p / rho` of every fluid particle (m/s^2);
+    /// `carries` (stage 5a's) is kept for the next step.
     pub(super) fn pressure_acceleration(
         &self,
         pred: &Predicted<D>,
         surf: &DensitySurface,
         density: &Option<Vec<f64>>,
         pressure: &[f64],
-        carries: &[bool],
+        carried: Vec<bool>,
     ) -> Vec<Vector<D>> {
+        let carries: &[bool] = &carried;
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
         let vc = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
         let (k, s) = (&self.kernels, &self.scheme);
         let n = pred.pos.len();
-        let ph: Vec<f64> = if s.gradient.model == GradientModel::Taylor {
-            Vec::new()
-        } else {
+        let mut ph = self.spare.take();
+        if s.gradient.model != GradientModel::Taylor {
             (0..n)
                 .into_par_iter()
                 .map(|i| p_hat(i, &v, pressure, carries, k.grad.re))
-                .collect()
-        };
+                .collect_into_vec(&mut ph);
+        }
+        let mut acc = self.spare.take();
         (0..n)
             .into_par_iter()
             .map(|i| {
@@ -483,7 +508,10 @@ impl<const D: usize> Simulation<D> {
                     Vector::zero()
                 }
             })
-            .collect()
+            .collect_into_vec(&mut acc);
+        self.spare.give(ph);
+        self.spare.give(carried);
+        acc
     }
 
     /// Stage 5c: Dynamic Stabilization (paper Eq. 7-19): the DS acceleration of every
@@ -499,18 +527,27 @@ impl<const D: usize> Simulation<D> {
             return (None, 0);
         };
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
-        let (a, active): (Vec<Vector<D>>, Vec<u32>) = (0..pred.pos.len())
-            .into_par_iter()
-            .map(|i| {
-                if v.kind[i] == Kind::Fluid {
-                    ds_acceleration(i, &v, acc, ds, &self.kernels, dt)
+        let owned = self.owned();
+        let mut a = self.spare.take();
+        a.resize(pred.pos.len(), Vector::zero());
+        // Active pairs counted over the own particles (an integer sum: any order).
+        let active = a
+            .par_iter_mut()
+            .enumerate()
+            .map(|(i, ai)| {
+                if v.kind[i] != Kind::Fluid {
+                    return 0;
+                }
+                let (d, n) = ds_acceleration(i, &v, acc, ds, &self.kernels, dt);
+                *ai = d;
+                if i < owned {
+                    n as u64
                 } else {
-                    (Vector::zero(), 0)
+                    0
                 }
             })
-            .unzip();
-        let owned = self.owned();
-        (Some(a), active[..owned].iter().map(|&a| a as u64).sum())
+            .sum();
+        (Some(a), active)
     }
 
     /// Stage 5d: particle shifting (beyond the paper, `numerics::shifting`) at `r*`: every
@@ -532,12 +569,12 @@ impl<const D: usize> Simulation<D> {
         let travel = self.max(u_max) * dt;
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
         let phase = &self.particles.phase;
-        Some(
-            (0..pred.pos.len())
-                .into_par_iter()
-                .map(|i| shift(i, &v, phase, &self.kernels, &s, travel))
-                .collect(),
-        )
+        let mut shifts = self.spare.take();
+        (0..pred.pos.len())
+            .into_par_iter()
+            .map(|i| shift(i, &v, phase, &self.kernels, &s, travel))
+            .collect_into_vec(&mut shifts);
+        Some(shifts)
     }
 
     /// Smallest fluid-neighbour distance (m) and the number of pairs closer than 0.9 l0.
@@ -661,12 +698,26 @@ impl<const D: usize> Simulation<D> {
         }
         // The near lists were cut at r*: the particles now leave it.
         self.drop_near_lists();
+        let spare = &self.spare;
+        if result.is_err() {
+            // The particles stay as they were (the step undoes its other changes).
+            for v in [pos, vel] {
+                spare.give(v);
+            }
+            spare.give(pressure);
+            spare.give(surf.number_density);
+            spare.give(surf.free_surface);
+            return result;
+        }
         let p = &mut self.particles;
-        p.velocity = vel;
-        p.position = pos;
-        p.pressure = pressure;
-        p.number_density = surf.number_density;
-        p.free_surface = surf.free_surface;
+        spare.give(std::mem::replace(&mut p.velocity, vel));
+        spare.give(std::mem::replace(&mut p.position, pos));
+        spare.give(std::mem::replace(&mut p.pressure, pressure));
+        spare.give(std::mem::replace(
+            &mut p.number_density,
+            surf.number_density,
+        ));
+        spare.give(std::mem::replace(&mut p.free_surface, surf.free_surface));
         result
     }
 }

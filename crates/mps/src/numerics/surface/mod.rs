@@ -141,14 +141,15 @@ surface_detectors! {
     scan_region::ScanRegion,
 }
 
-/// Free-surface flags of every particle: fluid particles, and wall particles when
-/// `test_walls` (walls open to the air), take the detector's test; dummies never do.
+/// Free-surface flags of every particle, into `out`: fluid particles, and wall particles
+/// when `test_walls` (walls open to the air), take the detector's test; dummies never do.
 pub fn detect<const D: usize>(
     detector: &SurfaceDetector,
     s: &SurfaceInput<D>,
     kind: &[Kind],
     test_walls: bool,
-) -> Vec<bool> {
+    out: &mut Vec<bool>,
+) {
     (0..s.pos.len())
         .into_par_iter()
         .map(|i| {
@@ -159,7 +160,7 @@ pub fn detect<const D: usize>(
             };
             tested && detector.is_surface(i, s)
         })
-        .collect()
+        .collect_into_vec(out)
 }
 
 /// The flags `detector` gives the points `pos` (2D, spacing `l0` m, re_grad 2.1, re_lap 3.1):
