@@ -239,45 +239,65 @@ fn smoothed_prolongator(
     }
     let omega = 4.0 / (3.0 * lambda);
     // Row i of (I - omega D^-1 A) T: entry for aggregate g is
-    // t_g [i in g] - omega/a_ii sum_{j in g} a_ij t_g.
-    let rows: Vec<(Vec<u32>, Vec<f64>)> = (0..a.n())
-        .into_par_iter()
-        .map(|i| {
-            let mut cols: Vec<u32> = Vec::with_capacity(8);
-            let mut vals: Vec<f64> = Vec::with_capacity(8);
-            let mut add = |g: u32, x: f64| match cols.iter().position(|&c| c == g) {
-                Some(k) => vals[k] += x,
-                None => {
-                    cols.push(g);
-                    vals.push(x);
-                }
-            };
-            let gi = agg[i];
-            add(gi, 1.0 / (size[gi as usize] as f64).sqrt());
-            let (c, v) = a.row(i);
-            for (&j, &x) in c.iter().zip(v) {
-                let g = agg[j as usize];
-                add(
-                    g,
-                    -omega * inv_diag[i] * x / (size[g as usize] as f64).sqrt(),
-                );
-            }
-            let mut idx: Vec<usize> = (0..cols.len()).collect();
-            idx.sort_unstable_by_key(|&k| cols[k]);
-            (
-                idx.iter().map(|&k| cols[k]).collect(),
-                idx.iter().map(|&k| vals[k]).collect(),
-            )
-        })
-        .collect();
+    // t_g [i in g] - omega/a_ii sum_{j in g} a_ij t_g. Gathered in a scratch per piece of
+    // rows (columns in order of first touch), counted, then written sorted in place.
+    let gather = |s: &mut RowScratch, i: usize| {
+        s.cols.clear();
+        s.vals.clear();
+        let gi = agg[i];
+        s.add(gi, 1.0 / (size[gi as usize] as f64).sqrt());
+        let (c, v) = a.row(i);
+        for (&j, &x) in c.iter().zip(v) {
+            let g = agg[j as usize];
+            s.add(
+                g,
+                -omega * inv_diag[i] * x / (size[g as usize] as f64).sqrt(),
+            );
+        }
+    };
     let mut p = CsrMatrix::default();
-    p.row_ptr.push(0);
-    for (c, v) in rows {
-        p.col.extend_from_slice(&c);
-        p.val.extend_from_slice(&v);
-        p.row_ptr.push(p.col.len() as u32);
-    }
+    build_rows_into(
+        a.n(),
+        &mut p,
+        RowScratch::default,
+        |s, i| {
+            gather(s, i);
+            s.cols.len() as u32
+        },
+        |s, i, cols, vals| {
+            gather(s, i);
+            s.order.clear();
+            s.order.extend(0..s.cols.len());
+            let by = &s.cols;
+            s.order.sort_unstable_by_key(|&k| by[k]);
+            for (n, &k) in s.order.iter().enumerate() {
+                (cols[n], vals[n]) = (s.cols[k], s.vals[k]);
+            }
+        },
+    );
     p
+}
+
+/// A row of the prolongator while it is gathered: its columns and values in order of first
+/// touch, and the order that sorts them.
+#[derive(Default)]
+struct RowScratch {
+    cols: Vec<u32>,
+    vals: Vec<f64>,
+    order: Vec<usize>,
+}
+
+impl RowScratch {
+    /// Adds `x` to the entry of column `g`, a new entry if the row has none.
+    fn add(&mut self, g: u32, x: f64) {
+        match self.cols.iter().position(|&c| c == g) {
+            Some(k) => self.vals[k] += x,
+            None => {
+                self.cols.push(g);
+                self.vals.push(x);
+            }
+        }
+    }
 }
 
 /// Dense Cholesky factor (row-major lower triangle) of a small SPD CSR matrix.
@@ -522,21 +542,21 @@ impl Amg {
         }
         let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
         if guard.len() != self.levels.len() || guard[0].res.len() != r.len() {
-            *guard = self
-                .levels
-                .iter()
-                .enumerate()
-                .map(|(l, lev)| {
-                    let n = if l == 0 { r.len() } else { lev.a.n() };
-                    let nc = lev.r.n();
-                    Work {
-                        res: vec![0.0; n],
-                        dir: vec![0.0; n],
-                        b_coarse: vec![0.0; nc],
-                        x_coarse: vec![0.0; nc],
-                    }
-                })
-                .collect();
+            // Zeroed to the new sizes, in the old vectors' memory.
+            guard.resize_with(self.levels.len(), Work::default);
+            for (l, (lev, w)) in self.levels.iter().zip(guard.iter_mut()).enumerate() {
+                let n = if l == 0 { r.len() } else { lev.a.n() };
+                let nc = lev.r.n();
+                for (v, len) in [
+                    (&mut w.res, n),
+                    (&mut w.dir, n),
+                    (&mut w.b_coarse, nc),
+                    (&mut w.x_coarse, nc),
+                ] {
+                    v.clear();
+                    v.resize(len, 0.0);
+                }
+            }
         }
         self.vcycle(a, 0, r, z, &mut guard);
     }

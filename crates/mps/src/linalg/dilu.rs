@@ -19,7 +19,7 @@ use super::sparse::{row_dot, CsrMatrix};
 
 /// The modified D-ILU preconditioner of a symmetric matrix whose rows are sorted by column
 /// and hold their diagonal.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Dilu {
     /// Position of each row's diagonal entry in the matrix's `col`/`val`.
     diag_pos: Vec<u32>,
@@ -29,6 +29,8 @@ pub struct Dilu {
     inv_d: Vec<f64>,
     /// `K = 2 D - diag(A)`.
     k: Vec<f64>,
+    /// Each row's sum right of its diagonal (the set-up's scratch, kept).
+    upper_sum: Vec<f64>,
 }
 
 impl Dilu {
@@ -37,16 +39,32 @@ impl Dilu {
     /// row `j`'s entries right of its diagonal. `None` if a row lacks its diagonal or a
     /// pivot is not positive.
     pub fn new(a: &CsrMatrix, omega: f64) -> Option<Dilu> {
+        let mut m = Dilu::default();
+        m.rebuild(a, omega).then_some(m)
+    }
+
+    /// [`Dilu::new`] in this preconditioner's memory; false (unusable) where `new` gives
+    /// `None`.
+    pub fn rebuild(&mut self, a: &CsrMatrix, omega: f64) -> bool {
         let n = a.n();
-        let mut diag_pos = Vec::with_capacity(n);
-        let mut upper_sum = Vec::with_capacity(n);
-        let mut d = vec![0.0; n];
-        let mut inv_d = vec![0.0; n];
+        let Dilu {
+            diag_pos,
+            d,
+            inv_d,
+            k,
+            upper_sum,
+        } = self;
+        diag_pos.clear();
+        upper_sum.clear();
+        for v in [&mut *d, &mut *inv_d] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
         for i in 0..n {
             let (start, end) = (a.row_ptr[i] as usize, a.row_ptr[i + 1] as usize);
             let p = start + a.col[start..end].partition_point(|&c| (c as usize) < i);
             if p == end || a.col[p] as usize != i {
-                return None;
+                return false;
             }
             diag_pos.push(p as u32);
             upper_sum.push(a.val[p + 1..end].iter().sum::<f64>());
@@ -57,20 +75,14 @@ impl Dilu {
                 di -= aij * inv_d[j] * (aij + omega * (upper_sum[j] - aij));
             }
             if !(di > 0.0) || !di.is_finite() {
-                return None;
+                return false;
             }
             d[i] = di;
             inv_d[i] = 1.0 / di;
         }
-        let k = (0..n)
-            .map(|i| 2.0 * d[i] - a.val[diag_pos[i] as usize])
-            .collect();
-        Some(Dilu {
-            diag_pos,
-            d,
-            inv_d,
-            k,
-        })
+        k.clear();
+        k.extend((0..n).map(|i| 2.0 * d[i] - a.val[diag_pos[i] as usize]));
+        true
     }
 
     /// The strict lower part of row `i` of `a`.
@@ -181,15 +193,51 @@ pub fn dilu_cg(
     tol: f64,
     max_iter: usize,
 ) -> Result<SolveStats, NotConverged> {
+    dilu_cg_in(a, b, x, m, (tol, max_iter), &mut DiluCgVectors::default())
+}
+
+/// The work vectors of [`dilu_cg`], kept between solves.
+#[derive(Clone, Debug, Default)]
+pub struct DiluCgVectors {
+    r: Vec<f64>,
+    y: Vec<f64>,
+    rh: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    w: Vec<f64>,
+    q: Vec<f64>,
+}
+
+/// [`dilu_cg`] to `(tol, max_iter)` in the memory of `work`.
+pub fn dilu_cg_in(
+    a: &CsrMatrix,
+    b: &[f64],
+    x: &mut [f64],
+    m: &Dilu,
+    (tol, max_iter): (f64, usize),
+    work: &mut DiluCgVectors,
+) -> Result<SolveStats, NotConverged> {
     let n = b.len();
+    let DiluCgVectors {
+        r,
+        y,
+        rh,
+        z,
+        p,
+        w,
+        q,
+    } = work;
+    for v in [&mut *r, &mut *y, &mut *rh, &mut *w, &mut *q] {
+        v.clear();
+        v.resize(n, 0.0);
+    }
     let bnorm = seq_dot(b, b).sqrt();
     if bnorm == 0.0 {
         x.iter_mut().for_each(|v| *v = 0.0);
         return Ok(SolveStats::default());
     }
     let goal = tol * bnorm;
-    let mut r = vec![0.0; n];
-    let mut rnorm = true_residual(a, b, x, &mut r);
+    let mut rnorm = true_residual(a, b, x, r);
     if rnorm <= goal {
         return Ok(SolveStats {
             iterations: 0,
@@ -197,19 +245,18 @@ pub fn dilu_cg(
         });
     }
     // Transformed unknowns y = T^T x and residual r^ = T^-1 r; z = D r^.
-    let mut y = vec![0.0; n];
-    m.upper_times(a, x, &mut y);
-    let mut rh = vec![0.0; n];
-    m.forward(a, &r, &mut rh);
-    let mut z: Vec<f64> = rh.iter().zip(&m.d).map(|(r, d)| r * d).collect();
-    let mut rz = seq_dot(&rh, &z);
+    m.upper_times(a, x, y);
+    m.forward(a, r, rh);
+    z.clear();
+    z.extend(rh.iter().zip(&m.d).map(|(r, d)| r * d));
+    let mut rz = seq_dot(rh, z);
     // The M^-1 norm must fall by the factor the true residual has to.
     let mut target = rz.sqrt() * goal / rnorm;
-    let mut p = z.clone();
-    let (mut w, mut q) = (vec![0.0; n], vec![0.0; n]);
+    p.clear();
+    p.extend_from_slice(z);
     for it in 1..=max_iter {
-        m.operator(a, &p, &mut w, &mut q);
-        let pq = seq_dot(&p, &q);
+        m.operator(a, p, w, q);
+        let pq = seq_dot(p, q);
         if !(pq > 0.0) {
             break;
         }
@@ -225,8 +272,8 @@ pub fn dilu_cg(
             break;
         }
         if rz_new.sqrt() <= target {
-            m.backward(a, &y, x);
-            rnorm = true_residual(a, b, x, &mut r);
+            m.backward(a, y, x);
+            rnorm = true_residual(a, b, x, r);
             if rnorm <= goal {
                 return Ok(SolveStats {
                     iterations: it,
@@ -241,8 +288,8 @@ pub fn dilu_cg(
             p[i] = z[i] + beta * p[i];
         }
     }
-    m.backward(a, &y, x);
-    rnorm = true_residual(a, b, x, &mut r);
+    m.backward(a, y, x);
+    rnorm = true_residual(a, b, x, r);
     Err(NotConverged::at(max_iter, rnorm / bnorm))
 }
 

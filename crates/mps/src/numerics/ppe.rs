@@ -17,7 +17,7 @@
 use super::kernel::Kernels;
 use super::scheme::Scheme;
 use super::source::source;
-use super::surface_pressure::{dirichlet_values, SurfacePressure};
+use super::surface_pressure::{dirichlet_values_into, SurfacePressure};
 use super::walls::WallPressure;
 use crate::linalg::CsrMatrix;
 use crate::particles::{Kind, Vector, View, NONE};
@@ -316,7 +316,7 @@ pub fn assemble_into<const D: usize>(
     let mut dirichlet = std::mem::take(&mut sys.dirichlet_value);
     dirichlet.clear();
     if s.surface_pressure == SurfacePressure::MeanSurface && !closed {
-        dirichlet = dirichlet_values(v, previous, k);
+        dirichlet_values_into(v, previous, k, &mut dirichlet);
     }
     let ctx = Rows {
         dirichlet: &dirichlet,

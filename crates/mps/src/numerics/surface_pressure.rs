@@ -49,6 +49,18 @@ const MAX_OFFSET: f64 = 0.5;
 /// Dirichlet value (Pa) of every particle: `G_i s_i` for free-surface fluid particles (module
 /// doc), 0 for all others. `previous` holds every particle's pressure of the last step (Pa).
 pub fn dirichlet_values<const D: usize>(v: &View<D>, previous: &[f64], k: &Kernels) -> Vec<f64> {
+    let mut out = Vec::new();
+    dirichlet_values_into(v, previous, k, &mut out);
+    out
+}
+
+/// [`dirichlet_values`] into `out`, reusing its memory.
+pub fn dirichlet_values_into<const D: usize>(
+    v: &View<D>,
+    previous: &[f64],
+    k: &Kernels,
+    out: &mut Vec<f64>,
+) {
     (0..v.pos.len())
         .into_par_iter()
         .map(|i| {
@@ -59,7 +71,7 @@ pub fn dirichlet_values<const D: usize>(v: &View<D>, previous: &[f64], k: &Kerne
                 0.0
             }
         })
-        .collect()
+        .collect_into_vec(out)
 }
 
 /// `G_i s_i` (Pa) of free-surface particle `i`.

@@ -4,8 +4,8 @@
 
 use crate::input::case::SolverSpec;
 use crate::linalg::{
-    dilu_cg, pcg_in, Amg, AmgParams, CgVectors, Dilu, Ic0, Identity, Jacobi, Mic0Scratch,
-    NotConverged, SolveStats, DILU_OMEGA, MIC_OMEGA,
+    dilu_cg_in, pcg_in, Amg, AmgParams, CgVectors, Dilu, DiluCgVectors, Ic0, Identity, Jacobi,
+    Mic0Scratch, NotConverged, SolveStats, DILU_OMEGA, MIC_OMEGA,
 };
 use crate::linalg::{Precondition, SolverKind};
 use crate::numerics::ppe::PressureSystem;
@@ -62,6 +62,9 @@ pub struct PressureSolver {
     mic_scratch: Mic0Scratch,
     /// CG's work vectors.
     cg: CgVectors,
+    /// The last D-ILU preconditioner and its CG's work vectors, whose memory the next uses.
+    dilu: Dilu,
+    dilu_cg: DiluCgVectors,
     last_iterations: usize,
     /// Steps whose preconditioner fell back to Jacobi.
     pub fallbacks: u64,
@@ -105,6 +108,8 @@ impl PressureSolver {
             mic: Ic0::default(),
             mic_scratch: Mic0Scratch::default(),
             cg: CgVectors::default(),
+            dilu: Dilu::default(),
+            dilu_cg: DiluCgVectors::default(),
             last_iterations: 0,
             fallbacks: 0,
         }
@@ -152,14 +157,18 @@ impl PressureSolver {
                 solved
             }
             // Modified D-ILU; where a relaxed pivot is not positive, plain D-ILU.
-            SolverKind::DiluCg => Dilu::new(&sys.matrix, DILU_OMEGA)
-                .or_else(|| Dilu::new(&sys.matrix, 0.0))
-                .map(|m| {
+            SolverKind::DiluCg => {
+                // Set up in the last preconditioner's memory.
+                let m = &mut self.dilu;
+                let ok = m.rebuild(&sys.matrix, DILU_OMEGA) || m.rebuild(&sys.matrix, 0.0);
+                ok.then(|| {
                     report.setup = t0.elapsed();
                     let t = Instant::now();
-                    let r = dilu_cg(&sys.matrix, &sys.rhs, x, &m, tol, max_iter);
+                    let (a, b, w) = (&sys.matrix, &sys.rhs, &mut self.dilu_cg);
+                    let r = dilu_cg_in(a, b, x, &self.dilu, (tol, max_iter), w);
                     (r, t.elapsed())
-                }),
+                })
+            }
             SolverKind::Cg => {
                 report.setup = t0.elapsed();
                 Some(timed_pcg(sys, x, &Identity, (tol, max_iter), &mut self.cg))
