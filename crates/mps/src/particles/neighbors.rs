@@ -11,7 +11,7 @@ use rayon::prelude::*;
 /// spans[i][1]]`. The lists are built by chunks of particles in parallel, each chunk into its
 /// own region of `indices`, sized from the last build's lists with a little room, so a build
 /// writes every list in place: no list is copied and, once warm, nothing is allocated
-/// (docs/decisions.md, "Neighbour lists in regions").
+/// (docs/decisions.md, "A step without allocations").
 #[derive(Clone, Debug, Default)]
 pub struct NeighborList {
     /// Each particle's range in `indices`.
