@@ -149,9 +149,9 @@ pub fn size_rows_into<S>(
         out.row_ptr[i + 1] += out.row_ptr[i];
     }
     let nnz = out.row_ptr[n] as usize;
-    out.col.clear();
+    // Every entry is written by the caller afterwards: the old ones are left as they are
+    // and only new room is zeroed (not a sequential pass over every entry each time).
     out.col.resize(nnz, 0);
-    out.val.clear();
     out.val.resize(nnz, 0.0);
 }
 
