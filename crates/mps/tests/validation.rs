@@ -311,7 +311,8 @@ fn settling_and_surfacing_groups() {
 
 /// The same two tanks at half the spacing (l0 = 1.25 mm, 28 000 fluid particles) to 0.5 s:
 /// the strays must not grow with resolution (issue 12), and the start stays within 15 % of
-/// the tank's ideal-fluid acceleration.
+/// the tank's ideal-fluid acceleration. The cases give the repulsion as an interface energy,
+/// so its `P` doubles here (200 and 40 Pa).
 #[test]
 #[ignore = "validation run (release mode): cargo test --release -- --ignored"]
 fn settling_and_surfacing_groups_at_half_the_spacing() {

@@ -883,7 +883,7 @@ impl Case {
     /// The resolved scheme of this case (`label` names the case in errors).
     pub fn scheme(&self, label: &str) -> Result<crate::numerics::Scheme, CaseError> {
         let courant = self.time.dt_fixed.is_none().then_some(self.time.courant);
-        self.scheme.resolve(courant, label)
+        self.scheme.resolve(courant, self.particles.spacing, label)
     }
 
     /// A fingerprint of everything that shapes the particle state (domain, particles, physics,

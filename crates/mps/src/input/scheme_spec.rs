@@ -48,8 +48,12 @@ pub struct ShiftingSpec {
 pub struct InterfaceRepulsionSpec {
     /// Switch it on or off (default: from the preset, on only in `MPS-HS-GC-DS-IR`).
     pub enabled: Option<bool>,
-    /// Background pressure `P` across unlike pairs (Pa; default 50).
+    /// Background pressure `P` across unlike pairs (Pa; default 50), the same at every
+    /// spacing.
     pub pressure: Option<f64>,
+    /// Or the interface energy `P l0` (N/m): `P` is this over the case's spacing, so a
+    /// refined run keeps the energy of unlike contact per length of interface (not both).
+    pub energy: Option<f64>,
 }
 
 /// Collision model options (equations.md section 5, step 2).
@@ -263,24 +267,34 @@ impl SchemeSpec {
         }))
     }
 
-    /// Interface repulsion: as the preset has it unless switched, with a checked pressure.
+    /// Interface repulsion: as the preset has it unless switched, with a checked pressure,
+    /// given as such or as an energy over the spacing `l0` (m).
     fn interface_repulsion(
         &self,
         preset: &Preset,
+        l0: f64,
         label: &str,
     ) -> Result<Option<InterfaceRepulsion>, CaseError> {
         let s = &self.interface_repulsion;
         if !s.enabled.unwrap_or(preset.interface_repulsion > 0.0) {
             return Ok(None);
         }
-        let p = s
-            .pressure
-            .unwrap_or(crate::numerics::scheme::defaults::INTERFACE_REPULSION);
-        let ok = p > 0.0 && p.is_finite();
-        let field = "interface_repulsion.pressure";
-        Ok(Some(InterfaceRepulsion {
-            pressure: check(label, field, p, ok, "(0, inf)")?,
-        }))
+        let pressure = match (s.pressure, s.energy) {
+            (Some(_), Some(e)) => {
+                let (field, msg) = ("scheme.interface_repulsion.energy", "give it or pressure");
+                return Err(CaseError::new(label, field, e.to_string(), msg));
+            }
+            (None, Some(e)) => {
+                let ok = e > 0.0 && e.is_finite();
+                check(label, "interface_repulsion.energy", e, ok, "(0, inf)")? / l0
+            }
+            (p, None) => {
+                let p = p.unwrap_or(crate::numerics::scheme::defaults::INTERFACE_REPULSION);
+                let ok = p > 0.0 && p.is_finite();
+                check(label, "interface_repulsion.pressure", p, ok, "(0, inf)")?
+            }
+        };
+        Ok(Some(InterfaceRepulsion { pressure }))
     }
 
     /// Particle shifting: off unless switched on, with checked parameters.
@@ -311,8 +325,14 @@ impl SchemeSpec {
     }
 
     /// Resolves the preset and overrides; `courant` is the Courant number when the time step
-    /// follows it (for the DS threshold of Eq. 9), `label` names the case in errors.
-    pub fn resolve(&self, courant: Option<f64>, label: &str) -> Result<Scheme, CaseError> {
+    /// follows it (for the DS threshold of Eq. 9), `spacing` the particle spacing l0 (m),
+    /// `label` names the case in errors.
+    pub fn resolve(
+        &self,
+        courant: Option<f64>,
+        spacing: f64,
+        label: &str,
+    ) -> Result<Scheme, CaseError> {
         let Some(preset) = Preset::named(&self.name) else {
             let names: Vec<&str> = PRESETS.iter().map(|p| p.name).collect();
             let msg = format!("unknown scheme; one of {}", names.join(", "));
@@ -375,7 +395,7 @@ impl SchemeSpec {
         s.collision = self.collision(preset, label)?;
         s.ds = self.ds(preset, courant, label)?;
         s.shifting = self.shifting(label)?;
-        s.interface_repulsion = self.interface_repulsion(preset, label)?;
+        s.interface_repulsion = self.interface_repulsion(preset, spacing, label)?;
         let g = &mut s.gradient;
         g.model = self.gradient.unwrap_or(g.model);
         g.correction = self.gradient_correction.unwrap_or(g.correction);
@@ -412,7 +432,7 @@ mod tests {
     #[test]
     fn the_bare_preset_is_the_numerics_preset() {
         for p in PRESETS {
-            assert_eq!(spec(p.name).resolve(None, "t").unwrap(), p.scheme());
+            assert_eq!(spec(p.name).resolve(None, 0.01, "t").unwrap(), p.scheme());
         }
     }
 
@@ -421,45 +441,56 @@ mod tests {
         let mut s = spec("MPS-HS-GC-DS");
         s.ds.enabled = Some(false);
         s.gradient_correction = Some(false);
-        let r = s.resolve(None, "t").unwrap();
+        let r = s.resolve(None, 0.01, "t").unwrap();
         assert!(r.ds.is_none() && !r.gradient.correction);
     }
 
     #[test]
     fn ds_threshold_follows_the_courant_number_unless_given() {
         let s = spec("MPS-HS-GC-DS");
-        assert_eq!(s.resolve(Some(0.03), "t").unwrap().ds.unwrap().alpha, 0.97);
+        assert_eq!(
+            s.resolve(Some(0.03), 0.01, "t").unwrap().ds.unwrap().alpha,
+            0.97
+        );
         let mut given = spec("MPS-HS-GC-DS");
         given.ds.alpha = Some(0.95);
         assert_eq!(
-            given.resolve(Some(0.03), "t").unwrap().ds.unwrap().alpha,
+            given
+                .resolve(Some(0.03), 0.01, "t")
+                .unwrap()
+                .ds
+                .unwrap()
+                .alpha,
             0.95
         );
     }
 
     #[test]
     fn bad_values_and_names_are_named() {
-        let e = spec("SPH").resolve(None, "t").unwrap_err();
+        let e = spec("SPH").resolve(None, 0.01, "t").unwrap_err();
         assert_eq!(e.field, "scheme.name");
         let mut s = spec("MPS");
         s.gamma = Some(2.0);
-        assert_eq!(s.resolve(None, "t").unwrap_err().field, "scheme.gamma");
+        assert_eq!(
+            s.resolve(None, 0.01, "t").unwrap_err().field,
+            "scheme.gamma"
+        );
         let mut s = spec("MPS");
         s.surface = Some(toml::from_str("detector = \"nope\"").unwrap());
         assert_eq!(
-            s.resolve(None, "t").unwrap_err().field,
+            s.resolve(None, 0.01, "t").unwrap_err().field,
             "scheme.surface.detector"
         );
         let mut s = spec("MPS");
         s.surface = Some(toml::from_str("detector = \"distribution\"\nthreshold = 5.0").unwrap());
         assert_eq!(
-            s.resolve(None, "t").unwrap_err().field,
+            s.resolve(None, 0.01, "t").unwrap_err().field,
             "scheme.surface.threshold"
         );
         let mut s = spec("MPS");
         s.surface_beta = Some(1.5);
         assert_eq!(
-            s.resolve(None, "t").unwrap_err().field,
+            s.resolve(None, 0.01, "t").unwrap_err().field,
             "scheme.surface.beta"
         );
     }
@@ -467,20 +498,23 @@ mod tests {
     #[test]
     fn the_distribution_detector_is_selectable() {
         let mut s = spec("MPS-HS-GC-DS");
-        assert_eq!(s.resolve(None, "t").unwrap().shifting, None);
+        assert_eq!(s.resolve(None, 0.01, "t").unwrap().shifting, None);
         s.shifting.enabled = Some(true);
-        let on = s.resolve(None, "t").unwrap().shifting.unwrap();
+        let on = s.resolve(None, 0.01, "t").unwrap().shifting.unwrap();
         assert_eq!(on, ParticleShifting::default());
         s.shifting.coefficient = Some(0.0);
-        let e = s.resolve(None, "t").unwrap_err();
+        let e = s.resolve(None, 0.01, "t").unwrap_err();
         assert_eq!(e.field, "scheme.shifting.coefficient");
         s.shifting.coefficient = None;
         s.shifting.max_shift = Some(0.7);
-        let e = s.resolve(None, "t").unwrap_err();
+        let e = s.resolve(None, 0.01, "t").unwrap_err();
         assert_eq!(e.field, "scheme.shifting.max_shift");
         let mut s = spec("MPS-HS-GC-DS");
         s.surface = Some(toml::from_str("detector = \"distribution\"").unwrap());
-        assert_eq!(s.resolve(None, "t").unwrap().surface.name(), "distribution");
+        assert_eq!(
+            s.resolve(None, 0.01, "t").unwrap().surface.name(),
+            "distribution"
+        );
     }
 
     /// The repulsion's pressure applies where the preset has it (so `mps compare` runs the
@@ -488,7 +522,7 @@ mod tests {
     #[test]
     fn the_interface_repulsion_follows_the_preset_unless_switched() {
         let pressure = |s: &SchemeSpec| {
-            s.resolve(Some(0.1), "t")
+            s.resolve(Some(0.1), 0.01, "t")
                 .unwrap()
                 .interface_repulsion
                 .map(|r| r.pressure)
@@ -502,7 +536,25 @@ mod tests {
         s.interface_repulsion.enabled = Some(true);
         assert_eq!(pressure(&s), Some(100.0));
         s.interface_repulsion.pressure = Some(-1.0);
-        let e = s.resolve(None, "t").unwrap_err();
+        let e = s.resolve(None, 0.01, "t").unwrap_err();
         assert_eq!(e.field, "scheme.interface_repulsion.pressure");
+        // As an energy (N/m): the pressure is it over the spacing, at any spacing.
+        s.interface_repulsion.pressure = None;
+        s.interface_repulsion.energy = Some(0.05);
+        for l0 in [0.0025, 0.00125] {
+            let r = s
+                .resolve(None, l0, "t")
+                .unwrap()
+                .interface_repulsion
+                .unwrap();
+            assert_eq!(r.pressure, 0.05 / l0);
+        }
+        s.interface_repulsion.pressure = Some(20.0);
+        let e = s.resolve(None, 0.01, "t").unwrap_err();
+        assert_eq!(e.field, "scheme.interface_repulsion.energy");
+        s.interface_repulsion.pressure = None;
+        s.interface_repulsion.energy = Some(f64::NAN);
+        let e = s.resolve(None, 0.01, "t").unwrap_err();
+        assert_eq!(e.field, "scheme.interface_repulsion.energy");
     }
 }

@@ -12,7 +12,9 @@
 //! particles do not trade places (the interface-sharpness idea of Grenier, Antuono,
 //! Colagrossi, Le Touze & Alessandrini 2009, J. Comput. Phys. 228, with a constant
 //! pressure scale). An explicit force of the prediction (stage 2), so the projection
-//! balances it at rest by a pressure step of about `2 P` across the interface.
+//! balances it at rest by a pressure step of about `2 P` across the interface. A case gives
+//! `P` or the interface energy `P l0` (N/m), which keeps the interface as l0 changes
+//! (docs/decisions.md, "The repulsion at l0 halved").
 
 use super::kernel::Kernels;
 use crate::particles::{Kind, Vector, View};
