@@ -93,6 +93,19 @@ impl Row {
             pss: self.particles as f64 * self.steps as f64 / self.seconds,
         }
     }
+    /// The rest of the step by stage (ms/step): explicit forces, number density and free
+    /// surface, gradient (with DS and the pair diagnostics), correction; as CSV columns.
+    fn rest_by_stage(&self) -> String {
+        let t = &self.timers;
+        [
+            Stage::Explicit,
+            Stage::DensitySurface,
+            Stage::Gradient,
+            Stage::Correction,
+        ]
+        .map(|st| format!(",{:.4}", self.per_step(t.get(st))))
+        .concat()
+    }
     fn per_step(&self, d: Duration) -> f64 {
         1e3 * d.as_secs_f64() / self.steps as f64
     }
@@ -286,7 +299,7 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
         "nb+expl s-up",
         "sys %"
     );
-    let mut csv = String::from("threads,particles,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,speedup,neighbors_explicit_speedup,system_percent_of_user\n");
+    let mut csv = String::from("threads,particles,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,speedup,neighbors_explicit_speedup,system_percent_of_user,explicit_ms,density_surface_ms,gradient_ms,correction_ms\n");
     let base = &rows[0];
     let explicit = |r: &Row| {
         let t = &r.timers;
@@ -310,8 +323,8 @@ pub fn cmd_bench(a: BenchArgs) -> CmdResult {
             r.system_percent
         );
         csv.push_str(&format!(
-            "{},{},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{speedup:.3},{nb_speedup:.3},{:.2}\n",
-            r.threads, r.particles, r.steps, r.mean_iterations, r.system_percent
+            "{},{},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{speedup:.3},{nb_speedup:.3},{:.2}{}\n",
+            r.threads, r.particles, r.steps, r.mean_iterations, r.system_percent, r.rest_by_stage()
         ));
     }
     finish(&a, &csv, baseline.as_ref())?;
@@ -369,7 +382,7 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str, baseline: Option<&Table>) -> 
         "solve", "rest", "ns/p/core", "B/part", "SpMV/bw", "PPE/SpMV", "Mp-s/s/c", "sys %"
     );
     let mut csv = String::from(
-        "particles,fluid,threads,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,non_ppe_ns_per_particle_core,peak_bytes_per_particle,spmv_ms,spmv_gb_per_s,spmv_bandwidth_ratio,ppe_spmv_equivalents,triad_gb_per_s,system_percent_of_user\n",
+        "particles,fluid,threads,steps,ms_per_step,particle_steps_per_s,ppe_iterations,neighbors_ms,assembly_ms,setup_ms,solve_ms,rest_ms,non_ppe_ns_per_particle_core,peak_bytes_per_particle,spmv_ms,spmv_gb_per_s,spmv_bandwidth_ratio,ppe_spmv_equivalents,triad_gb_per_s,system_percent_of_user,explicit_ms,density_surface_ms,gradient_ms,correction_ms\n",
     );
     let mut md = String::from(
         "| particles | threads | ms/step | M particle-steps/s | CG it | neighb | assembly | set-up | solve | rest (ms) | non-PPE ns/particle/core | bytes/particle | SpMV / triad | PPE in SpMVs |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
@@ -409,8 +422,8 @@ fn ladder(a: &BenchArgs, case: &Case, label: &str, baseline: Option<&Table>) -> 
                 rest, non_ppe_ns, bytes, ratio, equiv, pss / 1e6 / t as f64, r.system_percent
             );
             csv.push_str(&format!(
-                "{},{},{t},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{non_ppe_ns:.1},{bytes:.0},{spmv_ms:.4},{spmv_gbs:.3},{ratio:.3},{equiv:.2},{bw:.3},{:.2}\n",
-                r.particles, r.fluid, r.steps, r.mean_iterations, r.system_percent
+                "{},{},{t},{},{total:.4},{pss:.0},{:.2},{nb:.4},{asm:.4},{setup:.4},{sol:.4},{rest:.4},{non_ppe_ns:.1},{bytes:.0},{spmv_ms:.4},{spmv_gbs:.3},{ratio:.3},{equiv:.2},{bw:.3},{:.2}{}\n",
+                r.particles, r.fluid, r.steps, r.mean_iterations, r.system_percent, r.rest_by_stage()
             ));
             md.push_str(&format!(
                 "| {} | {t} | {} | {:.3} | {:.1} | {} | {} | {} | {} | {} | {non_ppe_ns:.0} | {bytes:.0} | {ratio:.2} | {equiv:.0} |\n",

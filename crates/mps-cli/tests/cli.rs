@@ -691,7 +691,8 @@ fn a_3d_run_renders_compares_and_reports() {
 }
 
 /// `mps bench --baseline` prints each figure of a row against the stored row of the same
-/// thread and particle count as new / old.
+/// thread and particle count as new / old; the stored table splits the rest of the step by
+/// stage.
 #[test]
 fn bench_against_a_baseline_prints_ratios() {
     let dir = std::env::temp_dir().join(format!("mps_cli_bench_{}", std::process::id()));
@@ -707,6 +708,26 @@ fn bench_against_a_baseline_prints_ratios() {
         "particles.spacing=0.02",
     ];
     succeed(mps().args(small).arg("--csv").arg(&csv));
+    // The rest of the step split by stage: the four stages' times lie within it.
+    let table = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let row: Vec<f64> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|c| c.parse().unwrap())
+        .collect();
+    let at = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
+    let stages = [
+        "explicit_ms",
+        "density_surface_ms",
+        "gradient_ms",
+        "correction_ms",
+    ];
+    let sum: f64 = stages.iter().map(|s| at(s)).sum();
+    assert!(stages.iter().all(|s| at(s) > 0.0), "{table}");
+    assert!(sum <= 1.05 * at("rest_ms"), "{table}");
     let out = mps()
         .args(small)
         .arg("--baseline")
