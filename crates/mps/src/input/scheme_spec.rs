@@ -281,7 +281,8 @@ impl SchemeSpec {
         }
         let pressure = match (s.pressure, s.energy) {
             (Some(_), Some(e)) => {
-                let (field, msg) = ("scheme.interface_repulsion.energy", "give it or pressure");
+                let field = "scheme.interface_repulsion.energy";
+                let msg = "give energy or pressure, not both";
                 return Err(CaseError::new(label, field, e.to_string(), msg));
             }
             (None, Some(e)) => {
