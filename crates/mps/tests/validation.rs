@@ -196,6 +196,52 @@ fn still_tank_with_gradient_correction_and_dynamic_stabilization() {
     }
 }
 
+/// Where the free surface's `p = 0` lies, against hydrostatics (still tank, H = 0.3 m,
+/// l0 = 5 mm, MPS-HS-GC-DS, 2 s): on the mean surface of the top row's centres
+/// (`mean-surface`) the bottom pressure over the last second is `rho g (H - l0/2)`, half a
+/// spacing out at the edge of the particles (`edge-surface`) `rho g H`, each within 0.3 %
+/// (the two differ by 0.83 %, so a half-spacing error fails either), the RMS speed below
+/// 0.1 sqrt(g l0).
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn still_tank_pressure_from_where_the_surface_lies() {
+    let (rho_g, h, l0) = (1000.0 * 9.81, 0.3, 0.005);
+    for (surface, depth) in [("mean-surface", h - l0 / 2.0), ("edge-surface", h)] {
+        let mut s = sim(
+            "hydrostatic",
+            &[
+                ("output.vtu", "false"),
+                ("scheme.name", "MPS-HS-GC-DS"),
+                ("scheme.surface_pressure", surface),
+                ("time.end", "2.0"),
+            ],
+        );
+        let dir = tmp(&format!("still_{surface}"));
+        let summary = run(&mut s, &dir, &mut Silent).unwrap();
+        assert!(
+            summary.breakdown.is_none(),
+            "{surface}: {:?}",
+            summary.breakdown
+        );
+        let max_rms = column(&dir.join("metrics.csv"), "rms_speed")
+            .into_iter()
+            .fold(0.0, f64::max);
+        let (mean, want) = (summary.validation[0].value, rho_g * depth);
+        eprintln!(
+            "{surface}: bottom {mean:.1} Pa against {want:.1} ({:+.2} %), max RMS speed {max_rms:.4} m/s",
+            100.0 * (mean / want - 1.0)
+        );
+        assert!(
+            max_rms < 0.1 * (9.81f64 * l0).sqrt(),
+            "{surface}: RMS {max_rms}"
+        );
+        assert!(
+            (mean / want - 1.0).abs() < 0.003,
+            "{surface}: bottom {mean} Pa against {want}"
+        );
+    }
+}
+
 /// Two-layer stratified tank (2650 under 1000 kg/m^3, l0 = 5 mm) with MPS-HS-GC-DS for 2 s
 /// (issue 4): the RMS speed stays below 0.1 sqrt(g l0), the heavy layer's centroid moves less
 /// than l0, and the bottom pressure averaged over the last second lies within 5 % of the

@@ -315,8 +315,9 @@ pub fn assemble_into<const D: usize>(
     sys.no_row = dirichlet;
     let mut dirichlet = std::mem::take(&mut sys.dirichlet_value);
     dirichlet.clear();
-    if s.surface_pressure == SurfacePressure::MeanSurface && !closed {
-        dirichlet_values_into(v, previous, k, &mut dirichlet);
+    if s.surface_pressure != SurfacePressure::Zero && !closed {
+        let edge = s.surface_pressure.edge(k.l0);
+        dirichlet_values_into(v, previous, k, edge, &mut dirichlet);
     }
     let ctx = Rows {
         dirichlet: &dirichlet,

@@ -26,6 +26,13 @@
 //!   mean surface is not defined).
 //!
 //! On a flat surface `s_i = 0` and the value is the paper's `p = 0`.
+//!
+//! With `edge-surface` the zero lies half a spacing beyond that mean surface, where the
+//! fluid's edge is (each particle stands for a cell of side l0): `p_i = G_i (s_i - l0/2)`,
+//! the heights `d_j` measured from the edge; a flat still surface takes `rho g l0 / 2`, the
+//! tank's bottom `rho g H`. Beside a wall it takes the kernel-weighted mean of its surface
+//! neighbours' values (swept into corners), since `0` there beside `rho g l0 / 2` would drive
+//! the water along the wall (docs/decisions.md, "The free surface at the particles' edge").
 
 use super::kernel::{weight, Kernels};
 use crate::particles::{Kind, Vector, View};
@@ -41,53 +48,118 @@ pub enum SurfacePressure {
     Zero,
     /// On the mean surface through the free-surface particles; each takes `G s` (Pa).
     MeanSurface,
+    /// Half a spacing beyond that mean surface, at the edge of the surface particles'
+    /// volumes; each takes `G (s - l0/2)` (Pa).
+    EdgeSurface,
 }
 
 /// The largest offset from the mean surface, in spacings.
 const MAX_OFFSET: f64 = 0.5;
 
-/// Dirichlet value (Pa) of every particle: `G_i s_i` for free-surface fluid particles (module
-/// doc), 0 for all others. `previous` holds every particle's pressure of the last step (Pa).
-pub fn dirichlet_values<const D: usize>(v: &View<D>, previous: &[f64], k: &Kernels) -> Vec<f64> {
+impl SurfacePressure {
+    /// Where `p = 0` lies beyond the mean surface of the surface particles' centres (m), at
+    /// spacing `l0` (m): 0, or half a spacing with `edge-surface`.
+    pub fn edge(self, l0: f64) -> f64 {
+        match self {
+            SurfacePressure::EdgeSurface => 0.5 * l0,
+            _ => 0.0,
+        }
+    }
+}
+
+/// Dirichlet value (Pa) of every particle: `G_i (s_i - e)` for free-surface fluid particles
+/// (module doc; `e` = `edge` (m), where `p = 0` lies beyond the mean surface), 0 for all
+/// others. `previous` holds every particle's pressure of the last step (Pa).
+pub fn dirichlet_values<const D: usize>(
+    v: &View<D>,
+    previous: &[f64],
+    k: &Kernels,
+    edge: f64,
+) -> Vec<f64> {
     let mut out = Vec::new();
-    dirichlet_values_into(v, previous, k, &mut out);
+    dirichlet_values_into(v, previous, k, edge, &mut out);
     out
 }
 
-/// [`dirichlet_values`] into `out`, reusing its memory.
+/// [`dirichlet_values`] into `out`, reusing its memory, with the zero level `edge` (m)
+/// beyond the mean surface (0 or `l0 / 2`).
 pub fn dirichlet_values_into<const D: usize>(
     v: &View<D>,
     previous: &[f64],
     k: &Kernels,
+    edge: f64,
     out: &mut Vec<f64>,
 ) {
     (0..v.pos.len())
         .into_par_iter()
         .map(|i| {
             let surface = v.kind[i] == Kind::Fluid && v.free_surface[i];
-            if surface {
-                mean_surface_value(i, v, previous, k)
-            } else {
-                0.0
+            match (surface, mean_surface_value(i, v, previous, k, edge)) {
+                (false, _) => 0.0,
+                (true, Some(p)) => p,
+                (true, None) if edge > 0.0 => f64::NAN,
+                (true, None) => 0.0,
             }
         })
-        .collect_into_vec(out)
+        .collect_into_vec(out);
+    if edge > 0.0 {
+        fill_contact_lines(v, k, out);
+    }
 }
 
-/// `G_i s_i` (Pa) of free-surface particle `i`.
-fn mean_surface_value<const D: usize>(i: usize, v: &View<D>, previous: &[f64], k: &Kernels) -> f64 {
+/// Where the free surface meets a wall (`edge-surface`; marked NaN in `out`): the
+/// kernel-weighted mean of the values of the free-surface fluid neighbours that have one,
+/// swept in particle order until no marked particle gains a value (a corner takes its
+/// value from the contact line beside it), the rest 0. With `p = 0` at the contact line
+/// and `rho g l0 / 2` beside it, still water would be driven along the wall.
+fn fill_contact_lines<const D: usize>(v: &View<D>, k: &Kernels, out: &mut [f64]) {
+    loop {
+        let mut filled = false;
+        for i in 0..out.len() {
+            if !out[i].is_nan() {
+                continue;
+            }
+            let (mut sum, mut sw) = (0.0, 0.0);
+            for q in v.pairs(i, k.grad.re) {
+                if v.kind[q.j] == Kind::Fluid && v.free_surface[q.j] && !out[q.j].is_nan() {
+                    sum += q.w * out[q.j];
+                    sw += q.w;
+                }
+            }
+            if sw > 0.0 {
+                out[i] = sum / sw;
+                filled = true;
+            }
+        }
+        if !filled {
+            break;
+        }
+    }
+    for p in out.iter_mut().filter(|p| p.is_nan()) {
+        *p = 0.0;
+    }
+}
+
+/// `G_i (s_i - edge)` (Pa) of free-surface particle `i`; `None` beside a wall or dummy
+/// particle, where the mean surface is not defined (a contact line).
+fn mean_surface_value<const D: usize>(
+    i: usize,
+    v: &View<D>,
+    previous: &[f64],
+    k: &Kernels,
+    edge: f64,
+) -> Option<f64> {
     let (re, l0) = (k.grad.re, k.l0);
     let mut centroid = Vector::<D>::zero();
     for q in v.pairs(i, re) {
         if v.kind[q.j] != Kind::Fluid {
-            // Where the surface meets a wall the mean surface is not defined: the paper's 0.
-            return 0.0;
+            return None;
         }
         centroid += q.xij * q.w;
     }
     let len = centroid.norm();
     if len <= 1e-12 * l0 {
-        return 0.0;
+        return Some(0.0);
     }
     let n = centroid * (-1.0 / len);
     let (mut sw, mut so) = (weight(l0, re), 0.0);
@@ -99,16 +171,16 @@ fn mean_surface_value<const D: usize>(i: usize, v: &View<D>, previous: &[f64], k
     let s = (-so / sw).clamp(-MAX_OFFSET * l0, MAX_OFFSET * l0);
     let (mut num, mut den, mut count, mut bound) = (0.0, 0.0, 0, 0.0f64);
     for q in v.pairs(i, re).filter(|q| !v.free_surface[q.j]) {
-        let d = q.xij.dot(&n) + s;
+        let d = q.xij.dot(&n) + s - edge;
         num += q.w * previous[q.j] * d;
         den += q.w * d * d;
         count += 1;
         bound = bound.max(previous[q.j].abs());
     }
     if count < 2 || den <= 0.0 {
-        return 0.0;
+        return Some(0.0);
     }
-    (num / den * s).clamp(-bound, bound)
+    Some((num / den * (s - edge)).clamp(-bound, bound))
 }
 
 #[cfg(test)]
@@ -147,7 +219,7 @@ mod tests {
         let l0 = 0.01;
         let (cloud, k, p, _) = block(0.0, 500.0, 9.0 * l0);
         let v = cloud.view();
-        let pd = dirichlet_values(&v, &p, &k);
+        let pd = dirichlet_values(&v, &p, &k, 0.0);
         for i in 0..v.pos.len() {
             let x = v.pos[i][0] / l0;
             if !v.free_surface[i] {
@@ -179,7 +251,7 @@ mod tests {
         for g in [500.0, -9810.0] {
             let y_mean = (9.0 + lift) * l0 - s;
             let (cloud, k, p, top) = block(lift, g, y_mean);
-            let pd = dirichlet_values(&cloud.view(), &p, &k)[top];
+            let pd = dirichlet_values(&cloud.view(), &p, &k, 0.0)[top];
             let want = g * s;
             assert!(
                 (pd - want).abs() < 1e-9 * want.abs(),
@@ -188,10 +260,54 @@ mod tests {
         }
         let (cloud, k, _, top) = block(lift, 500.0, 0.0);
         let zero = vec![0.0; cloud.view().pos.len()];
-        assert_eq!(dirichlet_values(&cloud.view(), &zero, &k)[top], 0.0);
+        assert_eq!(dirichlet_values(&cloud.view(), &zero, &k, 0.0)[top], 0.0);
         // Beside a wall (the columns left of it made wall particles): a contact line, 0.
         let (mut cloud, k, p, top) = block(lift, 500.0, (9.0 + lift) * l0 - s);
         cloud.set_walls(|x| x[0] < 6.5 * l0);
-        assert_eq!(dirichlet_values(&cloud.view(), &p, &k)[top], 0.0);
+        assert_eq!(dirichlet_values(&cloud.view(), &p, &k, 0.0)[top], 0.0);
+    }
+
+    /// With `edge-surface` the zero lies half a spacing beyond the mean surface: a flat
+    /// surface under gravity takes `rho g l0 / 2` (the hydrostatic pressure half a spacing
+    /// down), under tension the field's negative value there; a raised particle takes
+    /// `G (s - l0 / 2)` of a linear field that is zero at that edge.
+    #[test]
+    fn the_edge_surface_lies_half_a_spacing_out() {
+        let l0 = 0.01;
+        let edge = SurfacePressure::EdgeSurface.edge(l0);
+        assert_eq!(edge, 0.5 * l0);
+        assert_eq!(SurfacePressure::MeanSurface.edge(l0), 0.0);
+        for g in [500.0, -9810.0] {
+            // The field is zero half a spacing above the top row at y = 9 l0.
+            let (cloud, k, p, _) = block(0.0, g, 9.5 * l0);
+            let v = cloud.view();
+            let pd = dirichlet_values(&v, &p, &k, edge);
+            for i in 0..v.pos.len() {
+                let x = v.pos[i][0] / l0;
+                if v.free_surface[i] && (3.0..=11.0).contains(&x) {
+                    let want = -g * 0.5 * l0;
+                    assert!(
+                        (pd[i] - want).abs() < 1e-9 * want.abs(),
+                        "{} vs {want}",
+                        pd[i]
+                    );
+                }
+            }
+        }
+        let lift = 0.3;
+        let (cloud, k, _, top) = block(lift, 0.0, 0.0);
+        let v = cloud.view();
+        let (mut sw, mut so) = (weight(l0, k.grad.re), 0.0);
+        for q in v.pairs(top, k.grad.re).filter(|q| v.free_surface[q.j]) {
+            sw += q.w;
+            so += q.w * q.xij[1];
+        }
+        let s = -so / sw;
+        let g = 500.0;
+        let y_edge = v.pos[top][1] - s + 0.5 * l0;
+        let (cloud, k, p, top) = block(lift, g, y_edge);
+        let pd = dirichlet_values(&cloud.view(), &p, &k, edge)[top];
+        let want = g * (s - 0.5 * l0);
+        assert!((pd - want).abs() < 1e-9 * want.abs(), "{pd} vs {want}");
     }
 }
