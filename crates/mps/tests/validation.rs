@@ -242,6 +242,57 @@ fn still_tank_pressure_from_where_the_surface_lies() {
     }
 }
 
+/// A linear standing wave (`standing_wave`: mode 1 in a tank 0.5 m long and 0.25 m deep,
+/// a = 1 cm, l0 = 5 mm, MPS-HS-GC-DS, three periods) against `omega^2 = g k tanh(k h)`
+/// (T = 0.8357 s): the kinetic energy's minima (a parabola through each output minimum)
+/// fall at T/4 + n T/2, the first within 2 %, their mean spacing within 1 % of T/2 and each
+/// within 2.5 %. A wrong gravity, depth or pressure-gradient scale moves the period by more.
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn standing_wave_period_against_linear_theory() {
+    let mut s = sim("standing_wave", &[]);
+    let dir = tmp("standing_wave");
+    let summary = run(&mut s, &dir, &mut Silent).unwrap();
+    assert!(summary.breakdown.is_none(), "{:?}", summary.breakdown);
+    let metrics = dir.join("metrics.csv");
+    let (t, ke) = (column(&metrics, "time"), column(&metrics, "kinetic_energy"));
+    let (mut minima, mut peaks) = (Vec::new(), Vec::new());
+    for k in 1..t.len() - 1 {
+        if ke[k] > ke[k - 1] && ke[k] >= ke[k + 1] {
+            peaks.push(ke[k]);
+        }
+        if ke[k] < ke[k - 1] && ke[k] <= ke[k + 1] {
+            let curvature = ke[k - 1] - 2.0 * ke[k] + ke[k + 1];
+            let shift = 0.5 * (ke[k - 1] - ke[k + 1]) / curvature * (t[k] - t[k - 1]);
+            minima.push(t[k] + shift);
+        }
+    }
+    let k = std::f64::consts::PI / 0.5;
+    let period = 2.0 * std::f64::consts::PI / (9.81 * k * (k * 0.25f64).tanh()).sqrt();
+    let halves: Vec<f64> = minima.windows(2).map(|w| w[1] - w[0]).collect();
+    let mean = (minima[minima.len() - 1] - minima[0]) / halves.len() as f64;
+    eprintln!(
+        "standing wave: kinetic-energy minima at {minima:.4?} s; mean half period {mean:.4} s \
+         against {:.4} ({:+.2} %); kinetic energy {:.4} J/m at t = 0, its peaks {peaks:.4?}",
+        period / 2.0,
+        100.0 * (2.0 * mean / period - 1.0),
+        ke[0],
+    );
+    assert!(minima.len() >= 6, "minima {minima:?}");
+    assert!(
+        (minima[0] / (period / 4.0) - 1.0).abs() < 0.02,
+        "first {}",
+        minima[0]
+    );
+    assert!(
+        (2.0 * mean / period - 1.0).abs() < 0.01,
+        "mean half period {mean}"
+    );
+    for h in halves {
+        assert!((2.0 * h / period - 1.0).abs() < 0.025, "half period {h}");
+    }
+}
+
 /// Two-layer stratified tank (2650 under 1000 kg/m^3, l0 = 5 mm) with MPS-HS-GC-DS for 2 s
 /// (issue 4): the RMS speed stays below 0.1 sqrt(g l0), the heavy layer's centroid moves less
 /// than l0, and the bottom pressure averaged over the last second lies within 5 % of the

@@ -58,6 +58,11 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/elliptic_drop.toml"),
     ),
     (
+        "standing_wave",
+        "Standing wave in a tank: its period against linear theory (your own free-surface test)",
+        include_str!("../../cases/standing_wave.toml"),
+    ),
+    (
         "taylor_green",
         "Taylor-Green cell in a slip box: an exact steady flow under strong strain (particle shifting)",
         include_str!("../../cases/taylor_green.toml"),
