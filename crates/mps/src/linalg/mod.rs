@@ -13,7 +13,7 @@ pub mod sparse;
 
 pub use amg::{Amg, AmgParams};
 pub use dilu::{dilu_cg, dilu_cg_in, Dilu, DiluCgVectors};
-pub use ic0::{Ic0, Mic0Scratch};
+pub use ic0::{Carried, Ic0, Mic0Scratch, NEW_ROW};
 pub use pcg::{pcg, pcg_in, CgVectors, Identity, Jacobi, NotConverged, Precondition, SolveStats};
 pub use sparse::CsrMatrix;
 

@@ -233,6 +233,7 @@ impl<const D: usize> Simulation<D> {
         self.undo = Undo::default();
         match self.advance(until) {
             Ok(r) => {
+                self.solver.commit();
                 self.last = r;
                 self.step_count += 1;
                 self.time += r.dt;
@@ -247,6 +248,7 @@ impl<const D: usize> Simulation<D> {
                 Ok(r)
             }
             Err(f) => {
+                self.solver.rollback();
                 self.undo_step();
                 // A stage that failed after stage 3 leaves the near lists cut at r*.
                 self.drop_near_lists();

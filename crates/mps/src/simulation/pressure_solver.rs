@@ -4,12 +4,13 @@
 
 use crate::input::case::SolverSpec;
 use crate::linalg::{
-    dilu_cg_in, pcg_in, Amg, AmgParams, CgVectors, Dilu, DiluCgVectors, Ic0, Identity, Jacobi,
-    Mic0Scratch, NotConverged, SolveStats, DILU_OMEGA, MIC_OMEGA,
+    dilu_cg_in, pcg_in, Amg, AmgParams, Carried, CgVectors, Dilu, DiluCgVectors, Ic0, Identity,
+    Jacobi, Mic0Scratch, NotConverged, SolveStats, DILU_OMEGA, MIC_OMEGA, NEW_ROW,
 };
 use crate::linalg::{Precondition, SolverKind};
 use crate::numerics::ppe::PressureSystem;
 use crate::particles::NONE;
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 /// Steps an AMG hierarchy is reused for while the unknowns are the same or nearly the same
@@ -21,13 +22,95 @@ const AMG_MAX_AGE: u32 = 10;
 /// set (docs/decisions.md, "AMG reuse").
 const AMG_MAX_CHANGED_SHARE: f64 = 0.05;
 
-/// An AMG hierarchy kept from an earlier step.
-#[derive(Debug)]
-struct AmgCache {
+/// Steps a MIC(0) factor is carried over to later systems whose unknowns are the same
+/// particles or nearly so (docs/decisions.md, "MIC(0) carried over").
+const MIC_MAX_AGE: u32 = 10;
+
+/// The particle ids of a kept preconditioner's unknowns.
+#[derive(Debug, Default)]
+struct RowKeys {
     /// The particle ids of its unknowns (row -> id).
     ids: Vec<u32>,
     /// Its row of each particle id ([`NONE`] for none).
     row_of_id: Vec<u32>,
+}
+
+impl RowKeys {
+    /// Makes `ids` (row -> particle id) the kept unknowns.
+    fn rekey(&mut self, ids: &[u32]) {
+        for &id in &self.ids {
+            self.row_of_id[id as usize] = NONE;
+        }
+        let top = ids.iter().map(|&id| id as usize + 1).max().unwrap_or(0);
+        if self.row_of_id.len() < top {
+            self.row_of_id.resize(top, NONE);
+        }
+        for (k, &id) in ids.iter().enumerate() {
+            self.row_of_id[id as usize] = k as u32;
+        }
+        self.ids.clear();
+        self.ids.extend_from_slice(ids);
+    }
+
+    /// The kept row of each of `row_ids`' particles ([`NONE`] for a new one) into `from`,
+    /// and how many rows joined or left.
+    fn map_into(&self, row_ids: &[u32], from: &mut Vec<u32>) -> usize {
+        from.clear();
+        from.extend(
+            row_ids
+                .iter()
+                .map(|&id| self.row_of_id.get(id as usize).copied().unwrap_or(NONE)),
+        );
+        let kept = from.iter().filter(|&&o| o != NONE).count();
+        (row_ids.len() - kept) + (self.ids.len() - kept)
+    }
+}
+
+/// A MIC(0) factor kept from an earlier step, with its unknowns.
+#[derive(Debug, Default)]
+struct MicCache {
+    keys: RowKeys,
+    /// CG iterations of the solve right after its set-up.
+    setup_iterations: usize,
+    /// Steps it has been carried over.
+    age: u32,
+    /// Whether `PressureSolver::mic` holds a factor of `keys`' unknowns.
+    valid: bool,
+    /// Set-ups so far (tells a step that failed after a set-up from one that did not).
+    generation: u64,
+    /// The factor's row of each row of the current system (the carried map's memory).
+    from: Vec<u32>,
+    /// The current system's row ids (memory kept between steps).
+    row_ids: Vec<u32>,
+    /// The carried preconditioner's two work vectors.
+    work: Mutex<(Vec<f64>, Vec<f64>)>,
+}
+
+/// What one solve is asked: the system, every particle's id (by particle index), the
+/// relative residual to reach and when the solve began.
+#[derive(Clone, Copy)]
+struct Task<'a> {
+    sys: &'a PressureSystem,
+    ids: &'a [u32],
+    tol: f64,
+    t0: Instant,
+}
+
+/// [`MicCache`]'s bookkeeping after the last step that succeeded.
+#[derive(Clone, Copy, Debug, Default)]
+struct Committed {
+    valid: bool,
+    generation: u64,
+    age: u32,
+    setup_iterations: usize,
+    last_iterations: usize,
+}
+
+/// An AMG hierarchy kept from an earlier step.
+#[derive(Debug)]
+struct AmgCache {
+    /// The particle ids of its unknowns.
+    keys: RowKeys,
     /// The hierarchy.
     amg: Amg,
     /// CG iterations of the solve right after the set-up.
@@ -60,6 +143,10 @@ pub struct PressureSolver {
     /// The last MIC(0) factor and its set-up's scratch, whose memory the next set-up uses.
     mic: Ic0,
     mic_scratch: Mic0Scratch,
+    /// What the last factor was built for, so it can be carried over.
+    mic_cache: MicCache,
+    /// The carried factor's bookkeeping as it stood after the last step that succeeded.
+    committed: Committed,
     /// CG's work vectors.
     cg: CgVectors,
     /// The last D-ILU preconditioner and its CG's work vectors, whose memory the next uses.
@@ -107,6 +194,8 @@ impl PressureSolver {
             amg: None,
             mic: Ic0::default(),
             mic_scratch: Mic0Scratch::default(),
+            mic_cache: MicCache::default(),
+            committed: Committed::default(),
             cg: CgVectors::default(),
             dilu: Dilu::default(),
             dilu_cg: DiluCgVectors::default(),
@@ -119,6 +208,32 @@ impl PressureSolver {
     /// restarted run continues bit-identically).
     pub fn reset(&mut self) {
         self.amg = None;
+        self.mic_cache.valid = false;
+        self.committed.valid = false;
+    }
+
+    /// The step that used the last solve succeeded: what it decided stands.
+    pub fn commit(&mut self) {
+        let c = &self.mic_cache;
+        self.committed = Committed {
+            valid: c.valid,
+            generation: c.generation,
+            age: c.age,
+            setup_iterations: c.setup_iterations,
+            last_iterations: self.last_iterations,
+        };
+    }
+
+    /// The step that used the last solve failed: its retry decides as the failed try did
+    /// (set up afresh if the failed try did), so a run that recovers from a failed step
+    /// goes on as if the step had not been tried.
+    pub fn rollback(&mut self) {
+        let k = self.committed;
+        let c = &mut self.mic_cache;
+        c.valid = k.valid && k.generation == c.generation;
+        c.age = k.age;
+        c.setup_iterations = k.setup_iterations;
+        self.last_iterations = k.last_iterations;
     }
 
     /// Solves `sys` from the warm start `x` to the relative residual `tol`; on success `x`
@@ -132,30 +247,18 @@ impl PressureSolver {
         tol: f64,
     ) -> (Result<SolveStats, NotConverged>, SolveReport) {
         let t0 = Instant::now();
+        let task = Task { sys, ids, tol, t0 };
         let max_iter = self.max_iterations;
         let mut report = SolveReport::default();
         // `None`: the chosen preconditioner could not be built.
         let attempt = match self.kind.for_size(sys.matrix.n(), self.dimension) {
-            SolverKind::AmgCg => self.solve_amg(sys, x, ids, tol, t0, &mut report),
+            SolverKind::AmgCg => self.solve_amg(task, x, &mut report),
             SolverKind::Ic0Cg => Ic0::new(&sys.matrix).map(|f| {
                 report.setup = t0.elapsed();
                 timed_pcg(sys, x, &f, (tol, max_iter), &mut self.cg)
             }),
             // Modified IC(0); where a relaxed pivot is not positive, plain IC(0).
-            SolverKind::Mic0Cg => {
-                // Set up in the last factor's memory.
-                let mut mic = std::mem::take(&mut self.mic);
-                let f = match mic.modify_from(&sys.matrix, MIC_OMEGA, &mut self.mic_scratch) {
-                    true => Some(mic),
-                    false => Ic0::new(&sys.matrix),
-                };
-                let solved = f.as_ref().map(|f| {
-                    report.setup = t0.elapsed();
-                    timed_pcg(sys, x, f, (tol, max_iter), &mut self.cg)
-                });
-                self.mic = f.unwrap_or_default();
-                solved
-            }
+            SolverKind::Mic0Cg => Some(self.solve_mic(task, x, &mut report)),
             // Modified D-ILU; where a relaxed pivot is not positive, plain D-ILU.
             SolverKind::DiluCg => {
                 // Set up in the last preconditioner's memory.
@@ -202,38 +305,100 @@ impl PressureSolver {
         (result, report)
     }
 
+    /// MIC(0)-CG: carry the last factor over while it still converges nearly as fast as
+    /// right after its set-up and the unknowns are the same particles, or nearly so;
+    /// otherwise set up afresh (in the last factor's memory), plain IC(0) where a relaxed
+    /// pivot is not positive, Jacobi where neither can be built.
+    fn solve_mic(
+        &mut self,
+        task: Task,
+        x: &mut [f64],
+        report: &mut SolveReport,
+    ) -> (Result<SolveStats, NotConverged>, Duration) {
+        let Task { sys, ids, tol, t0 } = task;
+        let max_iter = self.max_iterations;
+        let c = &mut self.mic_cache;
+        c.row_ids.clear();
+        c.row_ids
+            .extend(sys.particle_of.iter().map(|&i| ids[i as usize]));
+        let healthy = c.valid
+            && c.age < MIC_MAX_AGE
+            && 2 * self.last_iterations <= 3 * c.setup_iterations.max(4);
+        if healthy {
+            let changed = c.keys.map_into(&c.row_ids, &mut c.from);
+            if changed as f64 <= AMG_MAX_CHANGED_SHARE * c.row_ids.len() as f64 {
+                c.age += 1;
+                report.setup = t0.elapsed();
+                if changed == 0 && c.from.iter().enumerate().all(|(k, &o)| o as usize == k) {
+                    // The same unknowns in the same order: the factor as it is.
+                    return timed_pcg(sys, x, &self.mic, (tol, max_iter), &mut self.cg);
+                }
+                c.from
+                    .iter_mut()
+                    .filter(|o| **o == NONE)
+                    .for_each(|o| *o = NEW_ROW);
+                let carried = Carried {
+                    factor: &self.mic,
+                    from: &c.from,
+                    work: &c.work,
+                };
+                return timed_pcg(sys, x, &carried, (tol, max_iter), &mut self.cg);
+            }
+        }
+        // Set up in the last factor's memory.
+        let mut mic = std::mem::take(&mut self.mic);
+        let f = match mic.modify_from(&sys.matrix, MIC_OMEGA, &mut self.mic_scratch) {
+            true => Some(mic),
+            false => Ic0::new(&sys.matrix),
+        };
+        let c = &mut self.mic_cache;
+        c.valid = false;
+        c.generation += 1;
+        let Some(f) = f else {
+            self.fallbacks += 1;
+            report.fallback = true;
+            let pre = Jacobi::new(&sys.matrix);
+            report.setup = t0.elapsed();
+            return timed_pcg(sys, x, &pre, (tol, max_iter), &mut self.cg);
+        };
+        report.setup = t0.elapsed();
+        let solved = timed_pcg(sys, x, &f, (tol, max_iter), &mut self.cg);
+        if let Ok(st) = &solved.0 {
+            c.keys.rekey(&c.row_ids);
+            c.setup_iterations = st.iterations;
+            c.age = 0;
+            c.valid = true;
+        }
+        self.mic = f;
+        solved
+    }
+
     /// AMG-CG: reuse the kept hierarchy while it still converges nearly as fast as right
     /// after its set-up and its unknowns are the same particles, or nearly so (their rows
     /// carried over by particle id); rebuild otherwise.
     fn solve_amg(
         &mut self,
-        sys: &PressureSystem,
+        task: Task,
         x: &mut [f64],
-        ids: &[u32],
-        tol: f64,
-        t0: Instant,
         report: &mut SolveReport,
     ) -> Option<(Result<SolveStats, NotConverged>, Duration)> {
+        let Task { sys, ids, tol, t0 } = task;
         let max_iter = self.max_iterations;
         let last = self.last_iterations;
-        let mut row_ids: Vec<u32> = sys.particle_of.iter().map(|&i| ids[i as usize]).collect();
+        let row_ids: Vec<u32> = sys.particle_of.iter().map(|&i| ids[i as usize]).collect();
         let healthy =
             |c: &AmgCache| c.age < AMG_MAX_AGE && 2 * last <= 3 * c.setup_iterations.max(4);
         if let Some(c) = self.amg.as_mut().filter(|c| healthy(c)) {
-            let reused = if c.ids == row_ids {
+            let reused = if c.keys.ids == row_ids {
                 c.amg.refresh_fine(&sys.matrix);
                 true
             } else {
-                let from: Vec<u32> = row_ids
-                    .iter()
-                    .map(|&id| c.row_of_id.get(id as usize).copied().unwrap_or(NONE))
-                    .collect();
-                let kept = from.iter().filter(|&&o| o != NONE).count();
-                let changed = (row_ids.len() - kept) + (c.ids.len() - kept);
+                let mut from = Vec::new();
+                let changed = c.keys.map_into(&row_ids, &mut from);
                 let small = changed as f64 <= AMG_MAX_CHANGED_SHARE * row_ids.len() as f64;
                 if small {
                     c.amg.remap_fine(&sys.matrix, &from);
-                    c.rekey(std::mem::take(&mut row_ids));
+                    c.keys.rekey(&row_ids);
                 }
                 small
             };
@@ -249,33 +414,15 @@ impl PressureSolver {
         let (r, solve) = timed_pcg(sys, x, &amg, (tol, max_iter), &mut self.cg);
         if let Ok(st) = r {
             let mut cache = AmgCache {
-                ids: Vec::new(),
-                row_of_id: Vec::new(),
+                keys: RowKeys::default(),
                 amg,
                 setup_iterations: st.iterations,
                 age: 0,
             };
-            cache.rekey(row_ids);
+            cache.keys.rekey(&row_ids);
             self.amg = Some(cache);
         }
         Some((r, solve))
-    }
-}
-
-impl AmgCache {
-    /// Makes `ids` (row -> particle id) the hierarchy's unknowns.
-    fn rekey(&mut self, ids: Vec<u32>) {
-        for &id in &self.ids {
-            self.row_of_id[id as usize] = NONE;
-        }
-        let top = ids.iter().map(|&id| id as usize + 1).max().unwrap_or(0);
-        if self.row_of_id.len() < top {
-            self.row_of_id.resize(top, NONE);
-        }
-        for (k, &id) in ids.iter().enumerate() {
-            self.row_of_id[id as usize] = k as u32;
-        }
-        self.ids = ids;
     }
 }
 

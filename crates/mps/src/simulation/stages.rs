@@ -171,7 +171,11 @@ impl<const D: usize> Simulation<D> {
     pub(super) fn collide(&self, pred: &mut Predicted<D>, c: Collision, dt: f64) -> u64 {
         let v = self.view_of(&pred.pos, &pred.vel, None, None);
         let mut vel = self.spare.take();
-        let n = collide(&v, c.alpha * self.l0(), c.restitution, &mut vel);
+        let n = collide(
+            &v,
+            (c.alpha * self.l0(), c.restitution, self.l0()),
+            &mut vel,
+        );
         for i in 0..pred.pos.len() {
             pred.pos[i] += (vel[i] - pred.vel[i]) * dt;
         }
