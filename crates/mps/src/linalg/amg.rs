@@ -23,7 +23,7 @@
 //! aggregation, and the parameters: docs/decisions.md, "AMG parameters".
 
 use super::pcg::Precondition;
-use super::sparse::{build_rows_into, spgemm, transpose, CsrMatrix};
+use super::sparse::{build_rows_into, row_dot, spgemm, transpose, CsrMatrix};
 use rayon::prelude::*;
 use std::sync::Mutex;
 
@@ -447,44 +447,54 @@ impl Amg {
         l0.set_fine(a, self.params.drop);
     }
 
-    /// Chebyshev smoothing of `A x = b` on level `l` (`x` starts at 0 when `zero`).
+    /// Chebyshev smoothing of `A x = b` on level `l` (`x` starts at 0 when `zero`). Each step
+    /// is one pass over the rows: the residual of the iterate, the new direction and the
+    /// next iterate, written into the other of `x` and `w.res` (so the last lands in `x`).
     fn smooth(&self, a: &CsrMatrix, l: usize, b: &[f64], x: &mut [f64], zero: bool, w: &mut Work) {
         let lev = &self.levels[l];
+        let inv = &lev.inv_diag[..];
         let hi = lev.lambda_max;
         let lo = hi * self.params.smoother_ratio;
         let theta = 0.5 * (hi + lo);
         let delta = 0.5 * (hi - lo);
         let sigma = theta / delta;
         let mut rho = 1.0 / sigma;
-        let (res, dir) = (&mut w.res, &mut w.dir);
+        let steps = self.params.smoother_degree.max(1);
+        let (t, dir) = (&mut w.res[..], &mut w.dir[..]);
+        // Where the current iterate is: in `x` or in `t`.
+        let mut in_x;
         if zero {
-            res.copy_from_slice(b);
-        } else {
-            residual(a, b, x, res);
-        }
-        dir.par_iter_mut()
-            .zip(res.par_iter())
-            .zip(lev.inv_diag.par_iter())
-            .for_each(|((d, r), di)| *d = di * r / theta);
-        if zero {
-            x.copy_from_slice(dir);
-        } else {
-            x.par_iter_mut()
-                .zip(dir.par_iter())
-                .for_each(|(x, d)| *x += d);
-        }
-        for _ in 1..self.params.smoother_degree {
-            let rho_new = 1.0 / (2.0 * sigma - rho);
-            residual(a, b, x, res);
-            let (c1, c2) = (rho_new * rho, 2.0 * rho_new / delta);
-            x.par_iter_mut()
+            // The first iterate from 0 is the scaled residual b; it goes where an odd
+            // number of further steps ends in `x`.
+            in_x = steps % 2 == 1;
+            let first = if in_x { &mut *x } else { &mut *t };
+            first
+                .par_iter_mut()
                 .zip(dir.par_iter_mut())
-                .zip(res.par_iter().zip(lev.inv_diag.par_iter()))
-                .for_each(|((x, d), (r, di))| {
-                    *d = c1 * *d + c2 * di * r;
-                    *x += *d;
+                .zip(b.par_iter().zip(inv.par_iter()))
+                .for_each(|((x, d), (b, di))| {
+                    *d = di * b / theta;
+                    *x = *d;
                 });
+        } else {
+            in_x = true;
+            step_into(a, (b, inv), x, t, dir, |_, di, r| di * r / theta);
+            in_x = !in_x;
+        }
+        for _ in 1..steps {
+            let rho_new = 1.0 / (2.0 * sigma - rho);
+            let (c1, c2) = (rho_new * rho, 2.0 * rho_new / delta);
+            let next = |d: f64, di: f64, r: f64| c1 * d + c2 * di * r;
+            if in_x {
+                step_into(a, (b, inv), x, t, dir, next);
+            } else {
+                step_into(a, (b, inv), t, x, dir, next);
+            }
+            in_x = !in_x;
             rho = rho_new;
+        }
+        if !in_x {
+            x.copy_from_slice(t);
         }
     }
 
@@ -527,10 +537,8 @@ impl Amg {
             a // unused by the direct solve
         };
         self.vcycle(next, l + 1, &w.b_coarse, &mut w.x_coarse, rest);
-        lev.p.spmv(&w.x_coarse, &mut w.res);
-        x.par_iter_mut()
-            .zip(w.res.par_iter())
-            .for_each(|(x, c)| *x += c);
+        // x += P x_coarse, in one pass.
+        lev.p.spmv_with(&w.x_coarse, x, |_, px, x| *x += px);
         self.smooth(a, l, b, x, false, w);
     }
 
@@ -620,10 +628,32 @@ fn without_weak_into(a: &CsrMatrix, drop: f64, out: &mut CsrMatrix) {
 
 /// `res = b - A x`.
 fn residual(a: &CsrMatrix, b: &[f64], x: &[f64], res: &mut [f64]) {
-    a.spmv(x, res);
-    res.par_iter_mut()
-        .zip(b.par_iter())
-        .for_each(|(r, b)| *r = b - *r);
+    a.spmv_with(x, res, |i, ax, r| *r = b[i] - ax);
+}
+
+/// One smoothing step in one pass over the rows: with `r = b - A x`, each row's direction
+/// becomes `next(d, 1/a_ii, r)` (`inv` holds the `1/a_ii`) and the new iterate `out = x + d`.
+fn step_into(
+    a: &CsrMatrix,
+    (b, inv): (&[f64], &[f64]),
+    x: &[f64],
+    out: &mut [f64],
+    dir: &mut [f64],
+    next: impl Fn(f64, f64, f64) -> f64 + Sync + Send,
+) {
+    const ROWS: usize = 1024;
+    out.par_chunks_mut(ROWS)
+        .zip(dir.par_chunks_mut(ROWS))
+        .enumerate()
+        .for_each(|(c, (out, dir))| {
+            for (k, (o, d)) in out.iter_mut().zip(dir).enumerate() {
+                let i = c * ROWS + k;
+                let (cols, vals) = a.row(i);
+                let r = b[i] - row_dot(cols, vals, x);
+                *d = next(*d, inv[i], r);
+                *o = x[i] + *d;
+            }
+        });
 }
 
 #[cfg(test)]

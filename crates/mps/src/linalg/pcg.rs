@@ -1,7 +1,7 @@
 //! Preconditioned conjugate gradient for symmetric positive-definite systems, and the
 //! preconditioner interface (identity and Jacobi here; IC(0) and AMG in their own files).
 
-use super::sparse::{dot_split, CsrMatrix, CHUNK};
+use super::sparse::{chunk_dot, dot_split, spmv_dot, summed_parts, CsrMatrix, CHUNK};
 use rayon::prelude::*;
 
 /// Below this many unknowns, CG with a sequential preconditioner does its products and
@@ -80,6 +80,11 @@ impl NotConverged {
     }
 }
 
+/// Chunks of the iterate and the residual, updated together.
+type XrChunks<'a> = (&'a mut [f64], &'a mut [f64]);
+/// Chunks of the direction and its product.
+type PqChunks<'a> = (&'a [f64], &'a [f64]);
+
 /// Preconditioned conjugate gradient for SPD `a`, starting from `x` (warm start), to the
 /// relative residual `tol`.
 pub fn pcg(
@@ -147,23 +152,40 @@ pub fn pcg_in(
     p.extend_from_slice(z);
     let mut rz = dot(r, z);
     for it in 1..=max_iter {
-        a.spmv_split(p, q, ml);
-        let pq = dot(p, q);
+        // q = A p with p . q, then x, r updated with r . r: two passes over the vectors.
+        let pq = spmv_dot(a, p, q, ml);
         if !(pq > 0.0) {
             break;
         }
         let alpha = rz / pq;
-        x.par_chunks_mut(CHUNK)
-            .zip(r.par_chunks_mut(CHUNK))
-            .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK)))
-            .with_min_len(ml)
-            .for_each(|((x, r), (p, q))| {
-                for k in 0..x.len() {
-                    x[k] += alpha * p[k];
-                    r[k] -= alpha * q[k];
-                }
-            });
-        rnorm = dot(r, r).sqrt();
+        let update = |((x, r), (p, q)): (XrChunks, PqChunks)| {
+            for k in 0..x.len() {
+                x[k] += alpha * p[k];
+                r[k] -= alpha * q[k];
+            }
+            chunk_dot((r, r))
+        };
+        let chunks = n.div_ceil(CHUNK);
+        let rr = if ml >= chunks {
+            x.chunks_mut(CHUNK)
+                .zip(r.chunks_mut(CHUNK))
+                .zip(p.chunks(CHUNK).zip(q.chunks(CHUNK)))
+                .map(update)
+                .sum()
+        } else {
+            summed_parts(chunks, |parts| {
+                parts
+                    .par_iter_mut()
+                    .zip(
+                        x.par_chunks_mut(CHUNK)
+                            .zip(r.par_chunks_mut(CHUNK))
+                            .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK))),
+                    )
+                    .with_min_len(ml)
+                    .for_each(|(part, c)| *part = update(c))
+            })
+        };
+        rnorm = rr.sqrt();
         if !rnorm.is_finite() {
             break;
         }

@@ -67,6 +67,22 @@ impl CsrMatrix {
                 }
             });
     }
+    /// `f(i, (A x)_i, &mut y[i])` for every row `i`, parallel over rows: a product and
+    /// what is done with it in one pass.
+    pub fn spmv_with(
+        &self,
+        x: &[f64],
+        y: &mut [f64],
+        f: impl Fn(usize, f64, &mut f64) + Sync + Send,
+    ) {
+        y.par_chunks_mut(1024).enumerate().for_each(|(c, ys)| {
+            for (k, yi) in ys.iter_mut().enumerate() {
+                let i = c * 1024 + k;
+                let (cols, vals) = self.row(i);
+                f(i, row_dot(cols, vals, x), yi);
+            }
+        });
+    }
     /// The diagonal entries (0 where none is stored).
     pub fn diagonal(&self) -> Vec<f64> {
         (0..self.n())
@@ -263,17 +279,70 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// [`dot`] with its chunks handed to the pool in pieces of at least `min_chunks` chunks
 /// (`usize::MAX`: all on the calling thread); the same result either way.
-///
-/// The chunks' partial sums are added in chunk order, on this thread; they are kept on the
-/// stack (no allocation inside CG) up to 64 chunks.
 pub fn dot_split(a: &[f64], b: &[f64], min_chunks: usize) -> f64 {
-    const ON_STACK: usize = 64;
-    let chunk_sum = |(x, y): (&[f64], &[f64])| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
     let m = a.len().div_ceil(CHUNK);
     if min_chunks >= m {
         // One piece: the pool would run it here anyway.
-        return a.chunks(CHUNK).zip(b.chunks(CHUNK)).map(chunk_sum).sum();
+        return a.chunks(CHUNK).zip(b.chunks(CHUNK)).map(chunk_dot).sum();
     }
+    summed_parts(m, |parts| {
+        parts
+            .par_iter_mut()
+            .zip(a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)))
+            .with_min_len(min_chunks)
+            .for_each(|(p, c)| *p = chunk_dot(c))
+    })
+}
+
+/// `sum_k a_k b_k` of one chunk, in sequence: the order of every reduction here.
+#[inline]
+pub fn chunk_dot((a, b): (&[f64], &[f64])) -> f64 {
+    a.iter().zip(b).map(|(p, q)| p * q).sum::<f64>()
+}
+
+/// `f(c, y_c)` for each chunk `c` of [`CHUNK`] entries of `y` (which `f` writes), returning
+/// the sum of what `f` returns in chunk order: a pass that writes a vector and reduces over
+/// it while the chunk is in cache, in [`dot_split`]'s order and with its pieces.
+pub fn write_and_sum(
+    y: &mut [f64],
+    min_chunks: usize,
+    f: impl Fn(usize, &mut [f64]) -> f64 + Sync + Send,
+) -> f64 {
+    let m = y.len().div_ceil(CHUNK);
+    if min_chunks >= m {
+        return y
+            .chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(c, ys)| f(c, ys))
+            .sum();
+    }
+    summed_parts(m, |parts| {
+        parts
+            .par_iter_mut()
+            .zip(y.par_chunks_mut(CHUNK))
+            .enumerate()
+            .with_min_len(min_chunks)
+            .for_each(|(c, (p, ys))| *p = f(c, ys))
+    })
+}
+
+/// `y = A x` and `x . y` in one pass over the rows: the result of
+/// [`CsrMatrix::spmv_split`] followed by [`dot_split`], bit for bit.
+pub fn spmv_dot(a: &CsrMatrix, x: &[f64], y: &mut [f64], min_chunks: usize) -> f64 {
+    write_and_sum(y, min_chunks, |c, ys| {
+        let i0 = c * CHUNK;
+        for (k, yi) in ys.iter_mut().enumerate() {
+            let (cols, vals) = a.row(i0 + k);
+            *yi = row_dot(cols, vals, x);
+        }
+        chunk_dot((&x[i0..i0 + ys.len()], ys))
+    })
+}
+
+/// The sum, in order, of `m` partial sums that `fill` writes; they are kept on the stack (no
+/// allocation inside CG) up to 64 parts.
+pub fn summed_parts(m: usize, fill: impl FnOnce(&mut [f64])) -> f64 {
+    const ON_STACK: usize = 64;
     let (mut stack, mut heap) = ([0.0; ON_STACK], Vec::new());
     let parts: &mut [f64] = if m <= ON_STACK {
         &mut stack[..m]
@@ -281,11 +350,7 @@ pub fn dot_split(a: &[f64], b: &[f64], min_chunks: usize) -> f64 {
         heap.resize(m, 0.0);
         &mut heap
     };
-    parts
-        .par_iter_mut()
-        .zip(a.par_chunks(CHUNK).zip(b.par_chunks(CHUNK)))
-        .with_min_len(min_chunks)
-        .for_each(|(p, c)| *p = chunk_sum(c));
+    fill(parts);
     parts.iter().sum()
 }
 
