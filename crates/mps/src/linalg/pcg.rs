@@ -85,6 +85,44 @@ type XrChunks<'a> = (&'a mut [f64], &'a mut [f64]);
 /// Chunks of the direction and its product.
 type PqChunks<'a> = (&'a [f64], &'a [f64]);
 
+/// `x += alpha p`, `r -= alpha q` and `r . r` in one pass, in [`dot_split`]'s order and
+/// pieces (`min_chunks` chunks at least).
+fn update_x_r(
+    x: &mut [f64],
+    r: &mut [f64],
+    (p, q): (&[f64], &[f64]),
+    alpha: f64,
+    min_chunks: usize,
+) -> f64 {
+    let update = |((x, r), (p, q)): (XrChunks, PqChunks)| {
+        for k in 0..x.len() {
+            x[k] += alpha * p[k];
+            r[k] -= alpha * q[k];
+        }
+        chunk_dot((r, r))
+    };
+    let chunks = x.len().div_ceil(CHUNK);
+    if min_chunks >= chunks {
+        return x
+            .chunks_mut(CHUNK)
+            .zip(r.chunks_mut(CHUNK))
+            .zip(p.chunks(CHUNK).zip(q.chunks(CHUNK)))
+            .map(update)
+            .sum();
+    }
+    summed_parts(chunks, |parts| {
+        parts
+            .par_iter_mut()
+            .zip(
+                x.par_chunks_mut(CHUNK)
+                    .zip(r.par_chunks_mut(CHUNK))
+                    .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK))),
+            )
+            .with_min_len(min_chunks)
+            .for_each(|(part, c)| *part = update(c))
+    })
+}
+
 /// Preconditioned conjugate gradient for SPD `a`, starting from `x` (warm start), to the
 /// relative residual `tol`.
 pub fn pcg(
@@ -158,33 +196,7 @@ pub fn pcg_in(
             break;
         }
         let alpha = rz / pq;
-        let update = |((x, r), (p, q)): (XrChunks, PqChunks)| {
-            for k in 0..x.len() {
-                x[k] += alpha * p[k];
-                r[k] -= alpha * q[k];
-            }
-            chunk_dot((r, r))
-        };
-        let chunks = n.div_ceil(CHUNK);
-        let rr = if ml >= chunks {
-            x.chunks_mut(CHUNK)
-                .zip(r.chunks_mut(CHUNK))
-                .zip(p.chunks(CHUNK).zip(q.chunks(CHUNK)))
-                .map(update)
-                .sum()
-        } else {
-            summed_parts(chunks, |parts| {
-                parts
-                    .par_iter_mut()
-                    .zip(
-                        x.par_chunks_mut(CHUNK)
-                            .zip(r.par_chunks_mut(CHUNK))
-                            .zip(p.par_chunks(CHUNK).zip(q.par_chunks(CHUNK))),
-                    )
-                    .with_min_len(ml)
-                    .for_each(|(part, c)| *part = update(c))
-            })
-        };
+        let rr = update_x_r(x, r, (p, q), alpha, ml);
         rnorm = rr.sqrt();
         if !rnorm.is_finite() {
             break;
