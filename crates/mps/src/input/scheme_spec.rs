@@ -24,7 +24,7 @@ pub struct DsSpec {
     /// Threshold fraction `alpha_DS` of the particle diameter (default `1 - time.courant`,
     /// paper Eq. 9: 0.9 at the default Courant number 0.1; 0.9 with a fixed time step).
     pub alpha: Option<f64>,
-    /// Pair-term weighting (default `kernel`).
+    /// Pair-term weighting (default: the preset's; `surface-full` for MPS-HS-GC-DS).
     pub weighting: Option<DsWeighting>,
     /// Whether DS acts on fluid-wall pairs (default true).
     pub walls: Option<bool>,
@@ -262,7 +262,7 @@ impl SchemeSpec {
         };
         Ok(Some(DynamicStabilization {
             alpha,
-            weighting: s.weighting.unwrap_or(DsWeighting::Kernel),
+            weighting: s.weighting.unwrap_or(preset.ds_weighting),
             walls: s.walls.unwrap_or(true),
         }))
     }

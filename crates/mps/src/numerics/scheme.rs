@@ -75,6 +75,10 @@ pub struct Preset {
     pub clamp_negative_pressure: bool,
     /// Background pressure of the repulsion between unlike fluid particles (Pa; 0: none).
     pub interface_repulsion: f64,
+    /// Where the free surface's pressure is set.
+    pub surface_pressure: SurfacePressure,
+    /// Weighting of the DS pair terms (used where `ds`).
+    pub ds_weighting: DsWeighting,
 }
 
 /// The paper's DS scheme, MPS-HS-GC-DS (equations.md section 8).
@@ -87,6 +91,11 @@ const DS_PRESET: Preset = Preset {
     collision: false,
     clamp_negative_pressure: false,
     interface_repulsion: 0.0,
+    // Beyond the paper, which does not state its surface treatment: `p` set half a spacing
+    // out at the particles' edge, and DS applied whole to pairs with a free-surface particle
+    // (docs/decisions.md, "DS whole at the free surface").
+    surface_pressure: SurfacePressure::EdgeSurface,
+    ds_weighting: DsWeighting::SurfaceFull,
 };
 
 /// The paper's presets (equations.md section 8), then the one beyond the paper.
@@ -100,6 +109,8 @@ pub const PRESETS: [Preset; 5] = [
         collision: true,
         clamp_negative_pressure: true,
         interface_repulsion: 0.0,
+        surface_pressure: SurfacePressure::Zero,
+        ds_weighting: DsWeighting::Kernel,
     },
     Preset {
         name: "CMPS-HS",
@@ -110,6 +121,8 @@ pub const PRESETS: [Preset; 5] = [
         collision: false,
         clamp_negative_pressure: false,
         interface_repulsion: 0.0,
+        surface_pressure: SurfacePressure::Zero,
+        ds_weighting: DsWeighting::Kernel,
     },
     Preset {
         name: "MPS-HS-GC",
@@ -120,6 +133,8 @@ pub const PRESETS: [Preset; 5] = [
         collision: false,
         clamp_negative_pressure: false,
         interface_repulsion: 0.0,
+        surface_pressure: SurfacePressure::Zero,
+        ds_weighting: DsWeighting::Kernel,
     },
     DS_PRESET,
     // Beyond the paper: MPS-HS-GC-DS with a repulsion between unlike fluid particles, which
@@ -129,6 +144,9 @@ pub const PRESETS: [Preset; 5] = [
     Preset {
         name: "MPS-HS-GC-DS-IR",
         interface_repulsion: defaults::INTERFACE_REPULSION,
+        // The surface treatment the two-phase figures were measured with.
+        surface_pressure: SurfacePressure::MeanSurface,
+        ds_weighting: DsWeighting::Kernel,
         ..DS_PRESET
     },
 ];
@@ -184,21 +202,16 @@ impl Preset {
                 gamma: defaults::GAMMA,
             },
             clamp_negative_pressure: self.clamp_negative_pressure,
-            // The DS preset: the distribution test and p = 0 on the mean surface (beyond the
-            // paper, which does not state its surface treatment): docs/decisions.md, "The
-            // rotating disc is unstable". The others keep the number density and p = 0 at
-            // the particles (MPS-HS-GC's still tank breaks with the pair: "Surface pressure
-            // at the mean surface").
+            // The DS presets: the distribution test (beyond the paper, which does not state
+            // its surface treatment): docs/decisions.md, "The rotating disc is unstable". The
+            // others keep the number density and p = 0 at the particles (MPS-HS-GC's still
+            // tank breaks with the mean surface: "Surface pressure at the mean surface").
             surface: if self.ds {
                 SurfaceDetector::Distribution(Distribution::default())
             } else {
                 SurfaceDetector::NumberDensity(NumberDensity::default())
             },
-            surface_pressure: if self.ds {
-                SurfacePressure::MeanSurface
-            } else {
-                SurfacePressure::Zero
-            },
+            surface_pressure: self.surface_pressure,
             // Both on for the HS presets, off for plain MPS: docs/decisions.md, "Wall surface
             // test" and "Air ghosts" (departures from the paper).
             wall_surface_test: hs,
@@ -214,7 +227,7 @@ impl Preset {
             }),
             ds: self.ds.then_some(DynamicStabilization {
                 alpha: defaults::DS_ALPHA,
-                weighting: DsWeighting::Kernel,
+                weighting: self.ds_weighting,
                 walls: true,
             }),
             shifting: None,
@@ -271,12 +284,22 @@ mod tests {
             .iter()
             .all(|p| p.scheme().interface_repulsion.is_none()));
         let ir = Scheme::preset("MPS-HS-GC-DS-IR").unwrap();
+        assert_eq!(d.surface_pressure, SurfacePressure::EdgeSurface);
+        assert_eq!(d.ds.unwrap().weighting, DsWeighting::SurfaceFull);
+        // The repulsion preset keeps the surface treatment its figures were measured with.
         let plain = Scheme {
             name: d.name.clone(),
             interface_repulsion: None,
+            surface_pressure: SurfacePressure::EdgeSurface,
+            ds: d.ds,
             ..ir.clone()
         };
-        assert_eq!(plain, d, "the DS preset and the repulsion, nothing else");
+        assert_eq!(
+            plain, d,
+            "the DS preset, the repulsion and its surface treatment"
+        );
+        assert_eq!(ir.surface_pressure, SurfacePressure::MeanSurface);
+        assert_eq!(ir.ds.unwrap().weighting, DsWeighting::Kernel);
         assert!(ir.interface_repulsion.unwrap().pressure > 0.0);
         assert!(Scheme::preset("SPH").is_none());
     }

@@ -4,7 +4,9 @@
 //! in one step (Eq. 11), and if the predicted distance falls below `d_ji = alpha_DS l0`
 //! (Eq. 8, 9), add the repulsive acceleration that restores `d_ji` along the pair line
 //! (Eq. 14-19), split between the two particles in the inverse ratio of their densities
-//! (Newton's third law, Eq. 12, 17), and averaged with the kernel weight (Eq. 7).
+//! (Newton's third law, Eq. 12, 17), and averaged with the kernel weight (Eq. 7); or, for a
+//! pair with a free-surface particle, applied whole (`surface-full`, beyond the paper:
+//! docs/decisions.md, "DS whole at the free surface").
 
 use super::kernel::Kernels;
 use crate::particles::{Kind, Vector, View};
@@ -18,6 +20,9 @@ pub enum DsWeighting {
     Kernel,
     /// Full restoration per pair, for study.
     None,
+    /// Kernel-weighted between two interior particles, full restoration for a pair with a
+    /// free-surface particle (the DS preset's default; beyond the paper).
+    SurfaceFull,
 }
 
 /// Dynamic Stabilization parameters (equations.md section 6).
@@ -75,10 +80,12 @@ pub fn ds_acceleration<const D: usize>(
             let rho_j = v.density[j];
             rho_j * delta / (dt * dt * (rho_i + rho_j))
         };
-        let w = match ds.weighting {
-            DsWeighting::Kernel => q.w / k.grad.n0,
-            DsWeighting::None => 1.0,
+        let whole = match ds.weighting {
+            DsWeighting::Kernel => false,
+            DsWeighting::None => true,
+            DsWeighting::SurfaceFull => v.free_surface[i] || v.free_surface[j],
         };
+        let w = if whole { 1.0 } else { q.w / k.grad.n0 };
         // Repulsion: i is pushed from j, along -e_ji.
         out -= e * (pi * w);
         if solid || i < j {
@@ -172,6 +179,36 @@ mod tests {
             "{}",
             predicted.norm() / l0
         );
+    }
+
+    /// `surface-full`: a pair with a free-surface particle is restored whole (to 0.9 l0 in
+    /// one step), a pair of two interior particles by the kernel-weighted share of Eq. 7.
+    #[test]
+    fn surface_pairs_are_restored_whole_and_interior_pairs_by_the_kernel_share() {
+        let l0 = 0.01;
+        let pos = vec![Vector([0.0, 0.0]), Vector([0.8 * l0, 0.0])];
+        let mut cloud = Cloud::new(pos, vec![Vector::zero(); 2], vec![1000.0; 2], 0.0, 3.1 * l0);
+        let k = Kernels::new::<2>(l0, 2.1, 3.1);
+        let ds = DynamicStabilization {
+            alpha: 0.9,
+            weighting: DsWeighting::SurfaceFull,
+            walls: true,
+        };
+        let (acc, dt) = (vec![Vector::zero(); 2], 1e-3);
+        let gap = |c: &Cloud<2>| {
+            let f = c.view();
+            let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).0;
+            let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).0;
+            assert!((a0 + a1).norm() < 1e-12 * a1.norm(), "momentum");
+            0.8 * l0 + (a1[0] - a0[0]) * dt * dt
+        };
+        let interior = (gap(&cloud) - 0.8 * l0) / (0.1 * l0);
+        let share = weight(0.8, 2.1)
+            / crate::numerics::kernel::KernelConstants::on_lattice::<2>(2.1, 1.0).n0;
+        assert!((interior - share).abs() < 1e-9, "{interior} vs {share}");
+        // One surface particle in the pair is enough.
+        cloud.set_surface(|x| x[0] > 0.5 * l0);
+        assert!((gap(&cloud) - 0.9 * l0).abs() < 1e-12);
     }
 
     #[test]

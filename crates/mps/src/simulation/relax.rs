@@ -3,13 +3,17 @@
 //! surface's first step), so a case whose measurement starts at t = 0 (the early
 //! acceleration of a settling group) first lets its tank settle. The tank is the case's own
 //! geometry with every fluid region of the first region's phase, at rest, stepped under the
-//! MPS-HS-GC-DS preset (which holds a still tank: docs/decisions.md), the same state whatever
-//! scheme the run itself then uses (so `mps compare` starts every scheme alike).
+//! MPS-HS-GC-DS preset (which holds a still tank: docs/decisions.md) with the surface
+//! treatment the settled starts were measured with (the paper's DS weighting, `p = 0` on the
+//! mean surface), the same state whatever scheme the run itself then uses (so `mps compare`
+//! starts every scheme alike).
 
 use super::Simulation;
 use crate::error::{Error, Result};
 use crate::input::case::{Case, RelaxSpec};
-use crate::input::scheme_spec::SchemeSpec;
+use crate::input::scheme_spec::{DsSpec, SchemeSpec};
+use crate::numerics::stabilization::DsWeighting;
+use crate::numerics::surface_pressure::SurfacePressure;
 use crate::particles::{Kind, Particles};
 
 /// The preset the relaxation runs under.
@@ -28,6 +32,11 @@ pub fn relaxation_case(case: &Case, spec: &RelaxSpec) -> Case {
     }
     rest.scheme = SchemeSpec {
         name: RELAX_SCHEME.into(),
+        surface_pressure: Some(SurfacePressure::MeanSurface),
+        ds: DsSpec {
+            weighting: Some(DsWeighting::Kernel),
+            ..DsSpec::default()
+        },
         ..SchemeSpec::default()
     };
     rest.initial = None;
