@@ -109,12 +109,15 @@ pub fn dirichlet_values_into<const D: usize>(
 
 /// Where the free surface meets a wall (`edge-surface`; marked NaN in `out`): the
 /// kernel-weighted mean of the values of the free-surface fluid neighbours that have one,
-/// swept in particle order until no marked particle gains a value (a corner takes its
-/// value from the contact line beside it), the rest 0. With `p = 0` at the contact line
-/// and `rho g l0 / 2` beside it, still water would be driven along the wall.
+/// in sweeps that each read only the values set before it (so the result does not depend on
+/// the particles' order: a distributed run's pieces fill as the serial run does), until no
+/// marked particle gains a value (a corner takes its value from the contact line beside
+/// it), the rest 0. With `p = 0` at the contact line and `rho g l0 / 2` beside it, still
+/// water would be driven along the wall.
 fn fill_contact_lines<const D: usize>(v: &View<D>, k: &Kernels, out: &mut [f64]) {
+    let mut filled: Vec<(usize, f64)> = Vec::new();
     loop {
-        let mut filled = false;
+        filled.clear();
         for i in 0..out.len() {
             if !out[i].is_nan() {
                 continue;
@@ -127,12 +130,14 @@ fn fill_contact_lines<const D: usize>(v: &View<D>, k: &Kernels, out: &mut [f64])
                 }
             }
             if sw > 0.0 {
-                out[i] = sum / sw;
-                filled = true;
+                filled.push((i, sum / sw));
             }
         }
-        if !filled {
+        if filled.is_empty() {
             break;
+        }
+        for &(i, p) in &filled {
+            out[i] = p;
         }
     }
     for p in out.iter_mut().filter(|p| p.is_nan()) {
