@@ -109,15 +109,12 @@ pub fn dirichlet_values_into<const D: usize>(
 
 /// Where the free surface meets a wall (`edge-surface`; marked NaN in `out`): the
 /// kernel-weighted mean of the values of the free-surface fluid neighbours that have one,
-/// in sweeps that each read only the values set before it (so the result does not depend on
-/// the particles' order: a distributed run's pieces fill as the serial run does), until no
-/// marked particle gains a value (a corner takes its value from the contact line beside
-/// it), the rest 0. With `p = 0` at the contact line and `rho g l0 / 2` beside it, still
-/// water would be driven along the wall.
+/// swept in particle order until no marked particle gains a value (a corner takes its
+/// value from the contact line beside it), the rest 0. With `p = 0` at the contact line
+/// and `rho g l0 / 2` beside it, still water would be driven along the wall.
 fn fill_contact_lines<const D: usize>(v: &View<D>, k: &Kernels, out: &mut [f64]) {
-    let mut filled: Vec<(usize, f64)> = Vec::new();
     loop {
-        filled.clear();
+        let mut filled = false;
         for i in 0..out.len() {
             if !out[i].is_nan() {
                 continue;
@@ -130,14 +127,12 @@ fn fill_contact_lines<const D: usize>(v: &View<D>, k: &Kernels, out: &mut [f64])
                 }
             }
             if sw > 0.0 {
-                filled.push((i, sum / sw));
+                out[i] = sum / sw;
+                filled = true;
             }
         }
-        if filled.is_empty() {
+        if !filled {
             break;
-        }
-        for &(i, p) in &filled {
-            out[i] = p;
         }
     }
     for p in out.iter_mut().filter(|p| p.is_nan()) {
