@@ -291,9 +291,9 @@ fn square_patch_initial_centre_pressure() {
 }
 
 /// Dynamic Stabilization with no active pair gives results bit-identical to MPS-HS-GC
-/// with the same surface treatment (the DS preset's: the distribution test and the surface at
-/// the particles' edge; the rotating lattice keeps every pair above 0.9 l0 for its first
-/// steps).
+/// with the same surface treatment (the DS preset's: the distribution test, the surface at
+/// the particles' edge and GC floored where it falls back; the rotating lattice keeps every
+/// pair above 0.9 l0 for its first steps).
 #[test]
 fn ds_without_active_pairs_is_bit_identical_to_gc() {
     let mut gc = sim(
@@ -302,6 +302,7 @@ fn ds_without_active_pairs_is_bit_identical_to_gc() {
             ("scheme.name", "MPS-HS-GC"),
             ("scheme.surface.detector", "distribution"),
             ("scheme.surface_pressure", "edge-surface"),
+            ("scheme.gc_fallback", "floored"),
         ],
     );
     let mut ds = sim("square_patch", &[("scheme.name", "MPS-HS-GC-DS")]);

@@ -4,7 +4,7 @@
 use crate::error::CaseError;
 use crate::numerics::collision::Collision;
 use crate::numerics::density::DensityAverage;
-use crate::numerics::gradient::{GradientDensity, GradientModel};
+use crate::numerics::gradient::{GcFallback, GradientDensity, GradientModel};
 use crate::numerics::interface_repulsion::InterfaceRepulsion;
 use crate::numerics::scheme::{Preset, Scheme, PRESETS};
 use crate::numerics::shifting::ParticleShifting;
@@ -79,9 +79,12 @@ pub struct SchemeSpec {
     pub gradient: Option<GradientModel>,
     /// Gradient correction override.
     pub gradient_correction: Option<bool>,
-    /// GC falls back to `d I` where the moment matrix's determinant is below this fraction
-    /// of the interior lattice value (default 0.2).
+    /// GC falls back where the moment matrix's determinant is below this fraction of the
+    /// interior lattice value (default 0.2).
     pub gc_min_determinant: Option<f64>,
+    /// What GC falls back to: `identity` (`d I`) or `floored` (the inverse with its
+    /// eigenvalues raised to at least `gc_min_determinant / d`); default the preset's.
+    pub gc_fallback: Option<GcFallback>,
     /// PPE source override.
     pub source: Option<SourceModel>,
     /// HS normalisation.
@@ -379,6 +382,7 @@ impl SchemeSpec {
             (0.0..=1.0).contains(&gc),
             "[0, 1]",
         )?;
+        s.gradient.gc_fallback = self.gc_fallback.unwrap_or(s.gradient.gc_fallback);
         let kappa = self.compressibility.unwrap_or(0.0);
         s.compressibility = check(
             label,

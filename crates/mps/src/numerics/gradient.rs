@@ -33,6 +33,20 @@ pub enum GradientDensity {
     Own,
 }
 
+/// What the gradient correction does where the moment matrix is near-singular (a particle
+/// whose neighbours sample some directions only: a filament, a tip, a corner).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GcFallback {
+    /// `C = d I`, the uncorrected gradient: a fraction of the force along the sampled
+    /// directions (0.70 along a line of neighbours in 2D).
+    Identity,
+    /// The inverse with each eigenvalue raised to at least `gc_min_determinant / d`: exact
+    /// along the sampled directions, bounded across the others (the DS preset's; beyond the
+    /// paper, docs/decisions.md, "The GC fallback floored").
+    Floored,
+}
+
 /// The pressure-gradient model of a scheme and its options.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PressureGradient {
@@ -42,6 +56,8 @@ pub struct PressureGradient {
     pub correction: bool,
     /// GC fallback threshold (fraction of the interior moment-matrix determinant).
     pub gc_min_determinant: f64,
+    /// GC where the moment matrix is near-singular.
+    pub gc_fallback: GcFallback,
     /// Which density divides the gradient.
     pub density: GradientDensity,
     /// How the pair density is formed.
@@ -89,6 +105,7 @@ pub fn correction_tensor<const D: usize>(
             &k.grad,
             |j| carries[j],
             g.gc_min_determinant,
+            g.gc_fallback == GcFallback::Floored,
         )
     } else {
         Matrix::scaled_identity(D as f64)

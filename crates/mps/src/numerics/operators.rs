@@ -91,13 +91,16 @@ pub fn divergence<const D: usize>(
 
 /// Gradient-correction tensor `C_i = [(1/n0) sum_j w_ij (r_ij ⊗ r_ij)/r^2]^-1`
 /// (Khayyer & Gotoh 2011; equations.md s.3) over the neighbours accepted by `include`.
-/// Falls back to `d I` where the moment matrix is near-singular: its determinant, as a
-/// fraction of that of the interior lattice matrix `I/d` (i.e. `d^-d`) raised to `2/d`,
-/// below `fallback_fraction`. The power makes the test the same in 2D and 3D (per pair of
+/// Where the moment matrix is near-singular (its determinant, as a fraction of that of the
+/// interior lattice matrix `I/d`, i.e. `d^-d`, raised to `2/d`, at most `fallback_fraction`)
+/// it falls back to `d I`, or with `floored` to its inverse with each eigenvalue raised to at
+/// least `fallback_fraction / d` (the lattice's eigenvalue is `1/d`): exact along the
+/// directions its neighbours sample, bounded across the others. The power makes the test the same in 2D and 3D (per pair of
 /// directions): a half neighbourhood at a free surface has 0.43 of the lattice determinant
 /// in 2D and 0.35 in 3D (0.50 after the power); a surface particle beside a wall, whose wall
-/// neighbours at its level carry no pressure, 0.25 in 2D and 0.185 in 3D (0.32): below 0.2,
-/// it fell back and got about half the force that holds it (docs/decisions.md, "GC fallback").
+/// neighbours at its level carry no pressure, 0.25 in 2D and 0.185 in 3D (0.32). The
+/// fallback `d I` gave a particle at the tip of a filament a fraction of the force that
+/// holds it (docs/decisions.md, "GC fallback" and "The GC fallback floored, not replaced").
 #[inline]
 pub fn gradient_correction<const D: usize>(
     i: usize,
@@ -106,6 +109,7 @@ pub fn gradient_correction<const D: usize>(
     k: &KernelConstants,
     include: impl Fn(usize) -> bool,
     fallback_fraction: f64,
+    floored: bool,
 ) -> Matrix<D> {
     let mut m = Matrix::zero();
     for p in pairs(pos, nl, i, k.re) {
@@ -124,6 +128,7 @@ pub fn gradient_correction<const D: usize>(
     };
     match m.determinant_and_inverse() {
         Some((det, inv)) if per_pair(det) > fallback_fraction => inv,
+        _ if floored => m.floored_inverse(fallback_fraction / D as f64),
         _ => Matrix::scaled_identity(D as f64),
     }
 }
@@ -154,7 +159,7 @@ pub(crate) mod tests {
         nl: &crate::particles::NeighborList,
         k: &KernelConstants,
     ) -> Vector<D> {
-        let cm = gradient_correction(c, p, nl, k, |_| true, 0.2);
+        let cm = gradient_correction(c, p, nl, k, |_| true, 0.2, false);
         let mut g = Vector::zero();
         for &j in nl.of(c) {
             let j = j as usize;
@@ -197,7 +202,7 @@ pub(crate) mod tests {
         let (p, c) = lattice_d::<3>(9, l0, 0.0);
         let k = KernelConstants::on_lattice::<3>(2.1 * l0, l0);
         let nl = build_neighbor_list(&p, 3.1 * l0);
-        let m = gradient_correction(c, &p, &nl, &k, |_| true, 0.2);
+        let m = gradient_correction(c, &p, &nl, &k, |_| true, 0.2, false);
         for a in 0..3 {
             for b in 0..3 {
                 let want = if a == b { 3.0 } else { 0.0 };
@@ -223,7 +228,8 @@ pub(crate) mod tests {
     /// The GC fallback test is the same in 2D and 3D: a surface particle beside a wall (its
     /// pressure-carrying neighbours only below it and on one side) keeps the correction in
     /// both, and the corrected gradient of a linear field there is exact; a line of
-    /// neighbours (a singular moment matrix) falls back to `d I`.
+    /// neighbours (a singular moment matrix) falls back to `d I`, or, floored, keeps it exact
+    /// along the line.
     #[test]
     fn a_surface_particle_beside_a_wall_keeps_gc_in_2d_and_3d() {
         fn edge<const D: usize>() {
@@ -237,7 +243,7 @@ pub(crate) mod tests {
             let keep = |j: usize| {
                 p[j][D - 1] < z - 1e-12 || (p[j][D - 1] < z + 1e-12 && p[j][0] > x - 1e-12)
             };
-            let m = gradient_correction(c, &p, &nl, &k, keep, 0.2);
+            let m = gradient_correction(c, &p, &nl, &k, keep, 0.2, false);
             let want = Vector::<D>::from_slice(&[3.0, -2.0, 0.5][..D]).unwrap();
             let mut g = Vector::<D>::zero();
             for q in pairs(&p, &nl, c, k.re) {
@@ -246,9 +252,25 @@ pub(crate) mod tests {
                 }
             }
             assert!((g - want).norm() < 1e-9, "{D}D: {g:?}");
+            // A line of neighbours along x (a filament one particle thick): singular. Floored,
+            // the eigenvalues are raised to 0.2 / d. Along the line the gradient stays exact
+            // (`d I` gave `d sum w x^2 / (r^2 n0)` of it, 0.70 in 2D and 0.48 in 3D here);
+            // across it the correction is bounded by `d / 0.2`.
             let line = |j: usize| (1..D).all(|d| (p[j][d] - p[c][d]).abs() < 1e-12);
-            let m = gradient_correction(c, &p, &nl, &k, line, 0.2);
+            let m = gradient_correction(c, &p, &nl, &k, line, 0.2, false);
             assert_eq!(m.0, Matrix::<D>::scaled_identity(D as f64).0);
+            let m = gradient_correction(c, &p, &nl, &k, line, 0.2, true);
+            let mut g = Vector::<D>::zero();
+            for q in pairs(&p, &nl, c, k.re) {
+                if line(q.j) {
+                    g += m.mul_vec(&q.xij) * (want.dot(&q.xij) * q.w / (q.r2 * k.n0));
+                }
+            }
+            assert!((g[0] - want[0]).abs() < 1e-9, "{D}D along the line: {g:?}");
+            for d in 1..D {
+                assert!(g[d].abs() < 1e-9, "{D}D across the line: {g:?}");
+                assert!((m.0[d][d] - D as f64 / 0.2).abs() < 1e-9, "{:?}", m.0);
+            }
         }
         edge::<2>();
         edge::<3>();
@@ -293,7 +315,7 @@ pub(crate) mod tests {
         let (p, c) = lattice(11, l0);
         let k = KernelConstants::on_lattice::<2>(2.1 * l0, l0);
         let nl = build_neighbor_list(&p, k.re);
-        let m = gradient_correction(c, &p, &nl, &k, |_| true, 0.2);
+        let m = gradient_correction(c, &p, &nl, &k, |_| true, 0.2, false);
         for a in 0..2 {
             for b in 0..2 {
                 let want = if a == b { 2.0 } else { 0.0 };

@@ -5,7 +5,7 @@
 
 use super::collision::Collision;
 use super::density::DensityAverage;
-use super::gradient::{GradientDensity, GradientModel, PressureGradient};
+use super::gradient::{GcFallback, GradientDensity, GradientModel, PressureGradient};
 use super::interface_repulsion::InterfaceRepulsion;
 use super::shifting::ParticleShifting;
 use super::source::{DriftControl, HsNormalization, PpeSource, SourceModel};
@@ -79,6 +79,8 @@ pub struct Preset {
     pub surface_pressure: SurfacePressure,
     /// Weighting of the DS pair terms (used where `ds`).
     pub ds_weighting: DsWeighting,
+    /// GC where the moment matrix is near-singular (used where `gradient_correction`).
+    pub gc_fallback: GcFallback,
 }
 
 /// The paper's DS scheme, MPS-HS-GC-DS (equations.md section 8).
@@ -92,10 +94,12 @@ const DS_PRESET: Preset = Preset {
     clamp_negative_pressure: false,
     interface_repulsion: 0.0,
     // Beyond the paper, which does not state its surface treatment: `p` set half a spacing
-    // out at the particles' edge, and DS applied whole to pairs with a free-surface particle
-    // (docs/decisions.md, "DS whole at the free surface").
+    // out at the particles' edge, DS applied whole to pairs with a free-surface particle
+    // (docs/decisions.md, "DS whole at the free surface"), and GC kept, floored, where the
+    // neighbours sample some directions only ("The GC fallback floored").
     surface_pressure: SurfacePressure::EdgeSurface,
     ds_weighting: DsWeighting::SurfaceFull,
+    gc_fallback: GcFallback::Floored,
 };
 
 /// The paper's presets (equations.md section 8), then the one beyond the paper.
@@ -111,6 +115,7 @@ pub const PRESETS: [Preset; 5] = [
         interface_repulsion: 0.0,
         surface_pressure: SurfacePressure::Zero,
         ds_weighting: DsWeighting::Kernel,
+        gc_fallback: GcFallback::Identity,
     },
     Preset {
         name: "CMPS-HS",
@@ -123,6 +128,7 @@ pub const PRESETS: [Preset; 5] = [
         interface_repulsion: 0.0,
         surface_pressure: SurfacePressure::Zero,
         ds_weighting: DsWeighting::Kernel,
+        gc_fallback: GcFallback::Identity,
     },
     Preset {
         name: "MPS-HS-GC",
@@ -135,6 +141,7 @@ pub const PRESETS: [Preset; 5] = [
         interface_repulsion: 0.0,
         surface_pressure: SurfacePressure::Zero,
         ds_weighting: DsWeighting::Kernel,
+        gc_fallback: GcFallback::Identity,
     },
     DS_PRESET,
     // Beyond the paper: MPS-HS-GC-DS with a repulsion between unlike fluid particles, which
@@ -147,6 +154,7 @@ pub const PRESETS: [Preset; 5] = [
         // The surface treatment the two-phase figures were measured with.
         surface_pressure: SurfacePressure::MeanSurface,
         ds_weighting: DsWeighting::Kernel,
+        gc_fallback: GcFallback::Identity,
         ..DS_PRESET
     },
 ];
@@ -187,6 +195,7 @@ impl Preset {
                 model: self.gradient,
                 correction: self.gradient_correction,
                 gc_min_determinant: defaults::GC_MIN_DETERMINANT,
+                gc_fallback: self.gc_fallback,
                 density: GradientDensity::Pair,
                 average: DensityAverage::Arithmetic,
             },
@@ -292,6 +301,7 @@ mod tests {
             interface_repulsion: None,
             surface_pressure: SurfacePressure::EdgeSurface,
             ds: d.ds,
+            gradient: d.gradient,
             ..ir.clone()
         };
         assert_eq!(
@@ -300,6 +310,11 @@ mod tests {
         );
         assert_eq!(ir.surface_pressure, SurfacePressure::MeanSurface);
         assert_eq!(ir.ds.unwrap().weighting, DsWeighting::Kernel);
+        assert_eq!(d.gradient.gc_fallback, GcFallback::Floored);
+        assert_eq!(ir.gradient.gc_fallback, GcFallback::Identity);
+        assert!(PRESETS[..3]
+            .iter()
+            .all(|p| p.scheme().gradient.gc_fallback == GcFallback::Identity));
         assert!(ir.interface_repulsion.unwrap().pressure > 0.0);
         assert!(Scheme::preset("SPH").is_none());
     }

@@ -296,6 +296,73 @@ impl<const D: usize> Matrix<D> {
         }
         Some((det, Matrix(inv)))
     }
+
+    /// Inverse of a symmetric matrix with every eigenvalue raised to at least `floor` first:
+    /// `V diag(1/max(lambda_k, floor)) V^T`. Equal to the inverse where no eigenvalue lies
+    /// below `floor`; bounded by `1/floor` where the matrix is near-singular. `floor > 0`.
+    pub fn floored_inverse(&self, floor: f64) -> Matrix<D> {
+        let (lambda, v) = self.symmetric_eigen();
+        let mut out = Self::zero();
+        for (k, l) in lambda.iter().enumerate() {
+            let s = 1.0 / l.max(floor);
+            for a in 0..D {
+                for b in 0..D {
+                    out.0[a][b] += s * v.0[a][k] * v.0[b][k];
+                }
+            }
+        }
+        out
+    }
+
+    /// Eigenvalues and eigenvectors (the columns of the second result) of a symmetric
+    /// matrix, by cyclic Jacobi rotations (Golub & Van Loan, Matrix Computations, s. 8.5).
+    pub fn symmetric_eigen(&self) -> ([f64; D], Matrix<D>) {
+        let mut a = self.0;
+        let mut v = Self::scaled_identity(1.0).0;
+        let scale: f64 = a.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
+        for _sweep in 0..32 {
+            let off: f64 = (0..D)
+                .flat_map(|p| (p + 1..D).map(move |q| (p, q)))
+                .map(|(p, q)| a[p][q] * a[p][q])
+                .sum::<f64>()
+                .sqrt();
+            if off <= 1e-15 * scale || !off.is_finite() {
+                break;
+            }
+            for p in 0..D {
+                for q in p + 1..D {
+                    if a[p][q] == 0.0 {
+                        continue;
+                    }
+                    // The rotation (c, s) that zeroes a[p][q].
+                    let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+                    let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                    let c = 1.0 / (t * t + 1.0).sqrt();
+                    let s = t * c;
+                    for k in 0..D {
+                        let (akp, akq) = (a[k][p], a[k][q]);
+                        a[k][p] = c * akp - s * akq;
+                        a[k][q] = s * akp + c * akq;
+                    }
+                    for k in 0..D {
+                        let (apk, aqk) = (a[p][k], a[q][k]);
+                        a[p][k] = c * apk - s * aqk;
+                        a[q][k] = s * apk + c * aqk;
+                    }
+                    for row in v.iter_mut() {
+                        let (vp, vq) = (row[p], row[q]);
+                        row[p] = c * vp - s * vq;
+                        row[q] = s * vp + c * vq;
+                    }
+                }
+            }
+        }
+        let mut lambda = [0.0; D];
+        for (k, l) in lambda.iter_mut().enumerate() {
+            *l = a[k][k];
+        }
+        (lambda, Matrix(v))
+    }
 }
 
 #[cfg(test)]
@@ -317,5 +384,41 @@ mod tests {
         assert!(Matrix([[1.0, 2.0], [2.0, 4.0]])
             .determinant_and_inverse()
             .is_none());
+    }
+
+    #[test]
+    fn symmetric_eigen_reconstructs_a_3x3_matrix() {
+        let m = Matrix([[2.0, 0.3, -0.5], [0.3, 1.0, 0.2], [-0.5, 0.2, 0.5]]);
+        let (l, v) = m.symmetric_eigen();
+        for a in 0..3 {
+            for b in 0..3 {
+                let back: f64 = (0..3).map(|k| v.0[a][k] * l[k] * v.0[b][k]).sum();
+                assert!((back - m.0[a][b]).abs() < 1e-13, "{a}{b}: {back}");
+                let dot: f64 = (0..3).map(|k| v.0[k][a] * v.0[k][b]).sum();
+                assert!((dot - if a == b { 1.0 } else { 0.0 }).abs() < 1e-13);
+            }
+        }
+        // Above the floor the floored inverse is the inverse.
+        let inv = m.determinant_and_inverse().unwrap().1;
+        let f = m.floored_inverse(1e-3);
+        for a in 0..3 {
+            for b in 0..3 {
+                assert!((inv.0[a][b] - f.0[a][b]).abs() < 1e-11);
+            }
+        }
+    }
+
+    #[test]
+    fn floored_inverse_of_a_singular_matrix_is_bounded() {
+        // Rank one along (1, 1)/sqrt 2 with eigenvalue 0.4: inverted along it, 1/floor across.
+        let m = Matrix([[0.2, 0.2], [0.2, 0.2]]);
+        let f = m.floored_inverse(0.1);
+        let along = f.mul_vec(&Vector([1.0, 1.0]));
+        let across = f.mul_vec(&Vector([1.0, -1.0]));
+        assert!((along - Vector([2.5, 2.5])).norm() < 1e-12, "{along:?}");
+        assert!(
+            (across - Vector([10.0, -10.0])).norm() < 1e-12,
+            "{across:?}"
+        );
     }
 }

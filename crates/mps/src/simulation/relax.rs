@@ -5,13 +5,14 @@
 //! geometry with every fluid region of the first region's phase, at rest, stepped under the
 //! MPS-HS-GC-DS preset (which holds a still tank: docs/decisions.md) with the surface
 //! treatment the settled starts were measured with (the paper's DS weighting, `p = 0` on the
-//! mean surface), the same state whatever scheme the run itself then uses (so `mps compare`
-//! starts every scheme alike).
+//! mean surface, GC falling back to `d I`), the same state whatever scheme the run itself
+//! then uses (so `mps compare` starts every scheme alike).
 
 use super::Simulation;
 use crate::error::{Error, Result};
 use crate::input::case::{Case, RelaxSpec};
 use crate::input::scheme_spec::{DsSpec, SchemeSpec};
+use crate::numerics::gradient::GcFallback;
 use crate::numerics::stabilization::DsWeighting;
 use crate::numerics::surface_pressure::SurfacePressure;
 use crate::particles::{Kind, Particles};
@@ -33,6 +34,7 @@ pub fn relaxation_case(case: &Case, spec: &RelaxSpec) -> Case {
     rest.scheme = SchemeSpec {
         name: RELAX_SCHEME.into(),
         surface_pressure: Some(SurfacePressure::MeanSurface),
+        gc_fallback: Some(GcFallback::Identity),
         ds: DsSpec {
             weighting: Some(DsWeighting::Kernel),
             ..DsSpec::default()
