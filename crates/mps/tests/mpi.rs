@@ -118,17 +118,20 @@ fn distributed_run_agrees(
     text.into_owned()
 }
 
-/// The dam break under the DS preset (free surface by the distribution test, mean-surface
-/// pressure, walls and dummies) on 1, 2 and 4 processes: after 100 steps every particle is
-/// within 1e-9 spacings of the serial run's, the PPE solved to 1e-12 on both sides (hypre
-/// against the serial solver; measured 1e-13 to 3e-12 l0). A halo of half the depth, whose
-/// outer particles see incomplete neighbourhoods, was off by 1.2e-6 l0 after 50 steps. On 4
-/// processes the collapsing column unbalances the pieces, which are cut afresh on the way.
+/// The dam break under the DS preset (free surface by the distribution test, walls and
+/// dummies) on 1, 2 and 4 processes: after 100 steps every particle is within 1e-8 spacings
+/// of the serial run's, the PPE solved to 1e-12 on both sides (hypre against the serial
+/// solver). The flow amplifies a round-off difference about tenfold every 20 steps (on 1
+/// process: 6e-14 l0 after 10 steps, 1e-12 after 50, 2.5e-10 after 90, 1.2e-9 after 100, and
+/// 1.2-1.5e-9 on 2 and 4; with the earlier surface treatment 1e-13 to 3e-12 after 100), so the
+/// bound reads round-off grown by the flow. A halo of half the depth, whose outer particles
+/// see incomplete neighbourhoods, was off by 1.2e-6 l0 after 50 steps. On 4 processes the
+/// collapsing column unbalances the pieces, which are cut afresh on the way.
 #[test]
 fn the_distributed_dam_break_agrees_with_the_serial_run_on_1_2_and_4_processes() {
     let set = ["scheme.name=MPS-HS-GC-DS", "solver.tolerance=1e-12"];
     for np in [1, 2, 4] {
-        let text = distributed_run_agrees("dam_break", np, 100, 1e-9, &set);
+        let text = distributed_run_agrees("dam_break", np, 100, 1e-8, &set);
         if np == 4 {
             assert!(!text.contains("cut afresh 0 times"), "{text}");
         }
