@@ -95,12 +95,12 @@ pub fn divergence<const D: usize>(
 /// interior lattice matrix `I/d`, i.e. `d^-d`, raised to `2/d`, at most `fallback_fraction`)
 /// it falls back to `d I`, or with `floored` to its inverse with each eigenvalue raised to at
 /// least `fallback_fraction / d` (the lattice's eigenvalue is `1/d`): exact along the
-/// directions its neighbours sample, bounded across the others. The power makes the test the same in 2D and 3D (per pair of
-/// directions): a half neighbourhood at a free surface has 0.43 of the lattice determinant
-/// in 2D and 0.35 in 3D (0.50 after the power); a surface particle beside a wall, whose wall
-/// neighbours at its level carry no pressure, 0.25 in 2D and 0.185 in 3D (0.32). The
-/// fallback `d I` gave a particle at the tip of a filament a fraction of the force that
-/// holds it (docs/decisions.md, "GC fallback" and "The GC fallback floored, not replaced").
+/// directions its neighbours sample, bounded across the others. The power makes the test
+/// the same in 2D and 3D (per pair of directions): a half neighbourhood at a free surface
+/// has 0.43 of the lattice determinant in 2D and 0.35 in 3D (0.50 after the power); a
+/// surface particle beside a wall, whose wall neighbours at its level carry no pressure,
+/// 0.25 in 2D and 0.185 in 3D (0.32). The fallback `d I` gave a particle at the tip of a
+/// filament a fraction of the force that holds it (docs/decisions.md, "GC fallback" and "The GC fallback floored").
 #[inline]
 pub fn gradient_correction<const D: usize>(
     i: usize,
