@@ -9,7 +9,7 @@ use crate::numerics::interface_repulsion::InterfaceRepulsion;
 use crate::numerics::scheme::{Preset, Scheme, PRESETS};
 use crate::numerics::shifting::ParticleShifting;
 use crate::numerics::source::{DriftControl, HsNormalization, SourceModel};
-use crate::numerics::stabilization::{DsWeighting, DynamicStabilization};
+use crate::numerics::stabilization::{DsVelocity, DsWeighting, DynamicStabilization};
 use crate::numerics::surface::SurfaceDetector;
 use crate::numerics::surface_pressure::SurfacePressure;
 use crate::numerics::walls::WallPressure;
@@ -28,6 +28,8 @@ pub struct DsSpec {
     pub weighting: Option<DsWeighting>,
     /// Whether DS acts on fluid-wall pairs (default true).
     pub walls: Option<bool>,
+    /// What DS does to velocities: `restoring` (the paper's, the default) or `inelastic`.
+    pub velocity: Option<DsVelocity>,
 }
 
 /// Particle shifting options (beyond the paper: `numerics::shifting`).
@@ -267,6 +269,7 @@ impl SchemeSpec {
             alpha,
             weighting: s.weighting.unwrap_or(preset.ds_weighting),
             walls: s.walls.unwrap_or(true),
+            velocity: s.velocity.unwrap_or(DsVelocity::Restoring),
         }))
     }
 

@@ -9,7 +9,7 @@ use super::gradient::{GcFallback, GradientDensity, GradientModel, PressureGradie
 use super::interface_repulsion::InterfaceRepulsion;
 use super::shifting::ParticleShifting;
 use super::source::{DriftControl, HsNormalization, PpeSource, SourceModel};
-use super::stabilization::{DsWeighting, DynamicStabilization};
+use super::stabilization::{DsVelocity, DsWeighting, DynamicStabilization};
 use super::surface::distribution::Distribution;
 use super::surface::number_density::NumberDensity;
 use super::surface::SurfaceDetector;
@@ -238,6 +238,7 @@ impl Preset {
                 alpha: defaults::DS_ALPHA,
                 weighting: self.ds_weighting,
                 walls: true,
+                velocity: DsVelocity::Restoring,
             }),
             shifting: None,
             interface_repulsion: (self.interface_repulsion > 0.0).then_some(InterfaceRepulsion {
@@ -316,6 +317,12 @@ mod tests {
             .iter()
             .all(|p| p.scheme().gradient.gc_fallback == GcFallback::Identity));
         assert!(ir.interface_repulsion.unwrap().pressure > 0.0);
+        // DS's velocities and the HS normalisation are the paper's in every preset.
+        assert!(PRESETS
+            .iter()
+            .map(|p| p.scheme())
+            .all(|s| s.ds.is_none_or(|d| d.velocity == DsVelocity::Restoring)
+                && s.source.hs_normalization == HsNormalization::Consistent));
         assert!(Scheme::preset("SPH").is_none());
     }
 }

@@ -25,6 +25,19 @@ pub enum DsWeighting {
     SurfaceFull,
 }
 
+/// What DS does to the velocities of an active pair.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DsVelocity {
+    /// The restoring acceleration acts on the velocity too (`dt Pi`, paper Eq. 7): the pair
+    /// leaves the step separating at `delta / dt`.
+    Restoring,
+    /// The positions are restored as in the paper, but the velocities only lose the pair's
+    /// approach along its line (an inelastic contact, beyond the paper): each step's
+    /// velocity change is bounded by the approach speed, not `delta / dt`.
+    Inelastic,
+}
+
 /// Dynamic Stabilization parameters (equations.md section 6).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DynamicStabilization {
@@ -34,13 +47,28 @@ pub struct DynamicStabilization {
     pub weighting: DsWeighting,
     /// Act on fluid-wall pairs (wall immovable).
     pub walls: bool,
+    /// What the pair term does to the velocities.
+    pub velocity: DsVelocity,
 }
 
-/// DS acceleration of fluid particle `i` (m/s^2) and the number of active pairs it counts
-/// (fluid-fluid pairs once, at the lower index; fluid-wall pairs always).
+/// DS's effect on one fluid particle over one step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DsCorrection<const D: usize> {
+    /// Acceleration (m/s^2) whose `dt^2` multiple is the position correction (paper Eq. 7).
+    pub acc: Vector<D>,
+    /// Velocity change (m/s) with [`DsVelocity::Inelastic`]; zero with `Restoring`, whose
+    /// velocity change is `dt acc`.
+    pub dvel: Vector<D>,
+    /// Active pairs counted at this particle (fluid pairs at the lower index, wall pairs).
+    pub active: u32,
+}
+
+/// DS correction of fluid particle `i`: its acceleration, its velocity change (inelastic
+/// mode) and the number of active pairs it counts.
 ///
 /// `acc` holds every particle's pressure acceleration from the gradient model (`-G/rho`,
-/// zero for walls), so the predicted displacement of Eq. 11 is `(acc_j - acc_i) dt^2`.
+/// zero for walls), so the predicted displacement of Eq. 11 is `(acc_j - acc_i) dt^2`, and
+/// the velocities after the pressure step are `u*_j + dt acc_j`.
 pub fn ds_acceleration<const D: usize>(
     i: usize,
     v: &View<D>,
@@ -48,11 +76,11 @@ pub fn ds_acceleration<const D: usize>(
     ds: &DynamicStabilization,
     k: &Kernels,
     dt: f64,
-) -> (Vector<D>, u32) {
+) -> DsCorrection<D> {
     let d_ji = ds.alpha * k.l0; // Eq. 8 with d_i = d_j = l0
     let rho_i = v.density[i];
-    let mut out = Vector::zero();
-    let mut active = 0u32;
+    let mut out = DsCorrection::default();
+    let inelastic = ds.velocity == DsVelocity::Inelastic;
     for q in v.pairs(i, k.grad.re) {
         let j = q.j;
         let solid = v.kind[j] != Kind::Fluid;
@@ -74,11 +102,12 @@ pub fn ds_acceleration<const D: usize>(
             continue;
         }
         // Eq. 19: Pi_ij = rho_j delta / (dt^2 (rho_i + rho_j)); an immovable wall takes none.
-        let pi = if solid {
-            delta / (dt * dt)
+        let (pi, share) = if solid {
+            (delta / (dt * dt), 1.0)
         } else {
             let rho_j = v.density[j];
-            rho_j * delta / (dt * dt * (rho_i + rho_j))
+            let pi = rho_j * delta / (dt * dt * (rho_i + rho_j));
+            (pi, rho_j / (rho_i + rho_j))
         };
         let whole = match ds.weighting {
             DsWeighting::Kernel => false,
@@ -87,12 +116,21 @@ pub fn ds_acceleration<const D: usize>(
         };
         let w = if whole { 1.0 } else { q.w / k.grad.n0 };
         // Repulsion: i is pushed from j, along -e_ji.
-        out -= e * (pi * w);
+        out.acc -= e * (pi * w);
+        if inelastic {
+            // The pair's approach speed after the pressure step, cancelled in i's share.
+            let u_i = v.vel[i] + acc[i] * dt;
+            let u_j = v.vel[j] + acc[j] * dt;
+            let approach = -(u_j - u_i).dot(&e);
+            if approach > 0.0 {
+                out.dvel -= e * (share * approach * w);
+            }
+        }
         if solid || i < j {
-            active += 1;
+            out.active += 1;
         }
     }
-    (out, active)
+    out
 }
 
 #[cfg(test)]
@@ -111,11 +149,12 @@ mod tests {
             alpha: 0.9,
             weighting,
             walls: true,
+            velocity: DsVelocity::Restoring,
         };
         let acc = vec![Vector::zero(); 2];
         let dt = 1e-3;
-        let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).0;
-        let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).0;
+        let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).acc;
+        let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).acc;
         // Displacements over one step: dt^2 a.
         [a0 * (dt * dt), a1 * (dt * dt)]
     }
@@ -159,12 +198,13 @@ mod tests {
             alpha: 0.9,
             weighting: DsWeighting::None,
             walls: true,
+            velocity: DsVelocity::Restoring,
         };
         let dt = 1e-3;
         // Gradient accelerations that bring j towards i and shear it sideways.
         let acc = vec![Vector([0.0, 0.0, 0.0]), Vector([-1.0, 0.5, -0.8])];
-        let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).0;
-        let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).0;
+        let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).acc;
+        let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).acc;
         let e = x1 / x1.norm();
         for a in [a0, a1] {
             assert!(
@@ -193,12 +233,13 @@ mod tests {
             alpha: 0.9,
             weighting: DsWeighting::SurfaceFull,
             walls: true,
+            velocity: DsVelocity::Restoring,
         };
         let (acc, dt) = (vec![Vector::zero(); 2], 1e-3);
         let gap = |c: &Cloud<2>| {
             let f = c.view();
-            let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).0;
-            let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).0;
+            let a0 = ds_acceleration(0, &f, &acc, &ds, &k, dt).acc;
+            let a1 = ds_acceleration(1, &f, &acc, &ds, &k, dt).acc;
             assert!((a0 + a1).norm() < 1e-12 * a1.norm(), "momentum");
             0.8 * l0 + (a1[0] - a0[0]) * dt * dt
         };
@@ -209,6 +250,62 @@ mod tests {
         // One surface particle in the pair is enough.
         cloud.set_surface(|x| x[0] > 0.5 * l0);
         assert!((gap(&cloud) - 0.9 * l0).abs() < 1e-12);
+    }
+
+    /// `inelastic`: the positions are restored as the paper's DS restores them, but the
+    /// velocities only lose the pair's approach along its line, whatever the step (the
+    /// paper's velocity change, `dt Pi`, grows as `1/dt`); momentum is conserved, and a pair
+    /// already separating keeps its velocities.
+    #[test]
+    fn inelastic_ds_cancels_the_approach_whatever_the_step() {
+        let l0 = 0.01;
+        let pos = vec![Vector([0.0, 0.0]), Vector([0.8 * l0, 0.0])];
+        let k = Kernels::new::<2>(l0, 2.1, 3.1);
+        let rho = [2650.0, 1000.0];
+        let ds = |velocity| DynamicStabilization {
+            alpha: 0.9,
+            weighting: DsWeighting::None,
+            walls: true,
+            velocity,
+        };
+        let acc = vec![Vector::zero(); 2];
+        let run = |vel: Vec<Vector<2>>, velocity, dt| {
+            let cloud = Cloud::new(pos.clone(), vel, rho.to_vec(), 0.0, 3.1 * l0);
+            let f = cloud.view();
+            let c0 = ds_acceleration(0, &f, &acc, &ds(velocity), &k, dt);
+            let c1 = ds_acceleration(1, &f, &acc, &ds(velocity), &k, dt);
+            (c0, c1)
+        };
+        // Closing at 0.3 m/s along the pair line, sliding 0.2 m/s across it.
+        let closing = vec![Vector([0.1, 0.0]), Vector([-0.2, 0.2])];
+        for dt in [1e-3, 1e-4] {
+            let (r0, r1) = run(closing.clone(), DsVelocity::Restoring, dt);
+            let (c0, c1) = run(closing.clone(), DsVelocity::Inelastic, dt);
+            assert_eq!(
+                (c0.acc, c1.acc),
+                (r0.acc, r1.acc),
+                "positions as the paper's"
+            );
+            assert_eq!((r0.dvel, r1.dvel), (Vector::zero(), Vector::zero()));
+            let u0 = closing[0] + c0.dvel;
+            let u1 = closing[1] + c1.dvel;
+            assert!(
+                (u1[0] - u0[0]).abs() < 1e-15,
+                "approach left {}",
+                u1[0] - u0[0]
+            );
+            assert_eq!((u0[1], u1[1]), (0.0, 0.2), "the sliding is kept");
+            assert!((c0.dvel * rho[0] + c1.dvel * rho[1]).norm() < 1e-12);
+            // The light particle takes the larger share of the 0.3 m/s.
+            assert!((c1.dvel[0] - 0.3 * 2650.0 / 3650.0).abs() < 1e-12);
+        }
+        let separating = vec![Vector([-0.1, 0.0]), Vector([0.2, 0.0])];
+        let (c0, c1) = run(separating, DsVelocity::Inelastic, 1e-3);
+        assert_eq!((c0.dvel, c1.dvel), (Vector::zero(), Vector::zero()));
+        assert!(
+            c0.acc[0] < 0.0 && c1.acc[0] > 0.0,
+            "positions still restored"
+        );
     }
 
     #[test]

@@ -17,7 +17,7 @@ pub mod timers;
 
 pub use breakdown::{Breakdown, BreakdownReason};
 pub use domain::Domain;
-pub use stages::{DensitySurface, Predicted};
+pub use stages::{DensitySurface, DsArrays, Predicted};
 pub use timers::{Stage, Timers};
 
 use crate::error::CaseError;
@@ -312,21 +312,27 @@ impl<const D: usize> Simulation<D> {
         report.max_speed = self.timed(Stage::Correction, |s| {
             s.correct(
                 (pred, surf),
-                (&acc, ds_acc.as_deref(), shifts.as_deref()),
+                (&acc, ds_acc.as_ref(), shifts.as_deref()),
                 pressure,
                 min_pair,
                 dt,
             )
         })?;
-        self.recycle([Some(acc), ds_acc, shifts], density);
+        self.recycle([Some(acc), shifts], ds_acc, density);
         // 7. Outflow: fluid beyond the domain leaves the run (when the case says so).
         report.removed = self.timed(Stage::Correction, |s| s.remove_outflow());
         Ok(report)
     }
 
     /// Keeps the step's accelerations, shifts and smoothed densities for the next step.
-    fn recycle(&self, vectors: [Option<Vec<Vector<D>>>; 3], density: Option<Vec<f64>>) {
-        for v in vectors.into_iter().flatten() {
+    fn recycle(
+        &self,
+        vectors: [Option<Vec<Vector<D>>>; 2],
+        ds: Option<DsArrays<D>>,
+        density: Option<Vec<f64>>,
+    ) {
+        let (ds_acc, ds_dvel) = ds.map_or((None, None), |d| (Some(d.acc), d.dvel));
+        for v in vectors.into_iter().chain([ds_acc, ds_dvel]).flatten() {
             self.spare.give(v);
         }
         if let Some(d) = density {

@@ -12,7 +12,7 @@ use crate::numerics::interfacial_tension::{surface_force, TensionInput};
 use crate::numerics::operators::{laplacian_vector, number_density};
 use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
 use crate::numerics::shifting::shift;
-use crate::numerics::stabilization::ds_acceleration;
+use crate::numerics::stabilization::{ds_acceleration, DsVelocity};
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
 use crate::particles::{Kind, Vector, View, NONE};
@@ -38,6 +38,16 @@ pub struct DensitySurface {
     pub number_density: Vec<f64>,
     /// Free-surface flags.
     pub free_surface: Vec<bool>,
+}
+
+/// Dynamic Stabilization's arrays for one step.
+#[derive(Clone, Debug)]
+pub struct DsArrays<const D: usize> {
+    /// DS acceleration of every particle (m/s^2).
+    pub acc: Vec<Vector<D>>,
+    /// Velocity change of every particle (m/s) with inelastic velocities; with the paper's
+    /// restoring velocities `None` (the velocity takes `dt acc`).
+    pub dvel: Option<Vec<Vector<D>>>,
 }
 
 impl<const D: usize> Simulation<D> {
@@ -519,39 +529,51 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Stage 5c: Dynamic Stabilization (paper Eq. 7-19): the DS acceleration of every
-    /// particle (m/s^2), if the scheme has it, and the number of active pairs.
+    /// particle (m/s^2) and, with inelastic velocities, its velocity change (m/s), if the
+    /// scheme has DS, and the number of active pairs.
     pub(super) fn stabilize(
         &self,
         pred: &Predicted<D>,
         surf: &DensitySurface,
         acc: &[Vector<D>],
         dt: f64,
-    ) -> (Option<Vec<Vector<D>>>, u64) {
+    ) -> (Option<DsArrays<D>>, u64) {
         let Some(ds) = &self.scheme.ds else {
             return (None, 0);
         };
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
         let owned = self.owned();
-        let mut a = self.spare.take();
-        a.resize(pred.pos.len(), Vector::zero());
+        let n = pred.pos.len();
+        let (mut a, mut dv) = (self.spare.take(), self.spare.take());
+        a.resize(n, Vector::zero());
+        let inelastic = ds.velocity == DsVelocity::Inelastic;
+        dv.resize(if inelastic { n } else { 0 }, Vector::zero());
         // Active pairs counted over the own particles (an integer sum: any order).
-        let active = a
-            .par_iter_mut()
-            .enumerate()
-            .map(|(i, ai)| {
-                if v.kind[i] != Kind::Fluid {
-                    return 0;
-                }
-                let (d, n) = ds_acceleration(i, &v, acc, ds, &self.kernels, dt);
-                *ai = d;
-                if i < owned {
-                    n as u64
-                } else {
-                    0
-                }
-            })
-            .sum();
-        (Some(a), active)
+        let count = |(i, ai): (usize, &mut Vector<D>), dvi: Option<&mut Vector<D>>| {
+            if v.kind[i] != Kind::Fluid {
+                return 0;
+            }
+            let c = ds_acceleration(i, &v, acc, ds, &self.kernels, dt);
+            *ai = c.acc;
+            if let Some(d) = dvi {
+                *d = c.dvel;
+            }
+            if i < owned {
+                c.active as u64
+            } else {
+                0
+            }
+        };
+        let active = if inelastic {
+            (a.par_iter_mut().enumerate())
+                .zip(dv.par_iter_mut())
+                .map(|(ia, d)| count(ia, Some(d)))
+                .sum()
+        } else {
+            a.par_iter_mut().enumerate().map(|ia| count(ia, None)).sum()
+        };
+        let dvel = inelastic.then_some(dv);
+        (Some(DsArrays { acc: a, dvel }), active)
     }
 
     /// Stage 5d: particle shifting (beyond the paper, `numerics::shifting`) at `r*`: every
@@ -656,7 +678,7 @@ impl<const D: usize> Simulation<D> {
     pub(super) fn correct(
         &mut self,
         (pred, surf): (Predicted<D>, DensitySurface),
-        (acc, ds_acc, shifts): (&[Vector<D>], Option<&[Vector<D>]>, Option<&[Vector<D>]>),
+        (acc, ds, shifts): (&[Vector<D>], Option<&DsArrays<D>>, Option<&[Vector<D>]>),
         pressure: Vec<f64>,
         min_pair: f64,
         dt: f64,
@@ -673,15 +695,18 @@ impl<const D: usize> Simulation<D> {
             .enumerate()
             .filter(|(i, _)| p.kind[*i] == Kind::Fluid)
             .for_each(|(i, (x, u))| {
-                let a = match ds_acc {
-                    Some(ds) => acc[i] + ds[i],
+                let a = match ds {
+                    Some(ds) => acc[i] + ds.acc[i],
                     None => acc[i],
                 };
                 *x += a * (dt * dt);
                 if let Some(d) = shifts {
                     *x += d[i];
                 }
-                *u += a * dt;
+                match ds.and_then(|d| d.dvel.as_deref()) {
+                    Some(dv) => *u += acc[i] * dt + dv[i],
+                    None => *u += a * dt,
+                }
             });
         let own = self.owned();
         let (o_pos, o_vel, o_p) = (&pos[..own], &vel[..own], &pressure[..own]);
