@@ -28,7 +28,8 @@ pub struct DsSpec {
     pub weighting: Option<DsWeighting>,
     /// Whether DS acts on fluid-wall pairs (default true).
     pub walls: Option<bool>,
-    /// What DS does to velocities: `restoring` (the paper's, the default) or `inelastic`.
+    /// What DS does to velocities: `restoring` (the paper's) or `inelastic` (default: the
+    /// preset's).
     pub velocity: Option<DsVelocity>,
 }
 
@@ -269,7 +270,7 @@ impl SchemeSpec {
             alpha,
             weighting: s.weighting.unwrap_or(preset.ds_weighting),
             walls: s.walls.unwrap_or(true),
-            velocity: s.velocity.unwrap_or(DsVelocity::Restoring),
+            velocity: s.velocity.unwrap_or(preset.ds_velocity),
         }))
     }
 

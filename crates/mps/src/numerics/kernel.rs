@@ -2,6 +2,16 @@
 
 use crate::particles::Vector;
 
+/// `f(r/re)` for `0 < r < re`, else 0.
+#[inline]
+fn on_support(r: f64, re: f64, f: impl Fn(f64) -> f64) -> f64 {
+    if r > 0.0 && r < re {
+        f(r / re)
+    } else {
+        0.0
+    }
+}
+
 /// MPS weight `w(r) = re/r - 1` for `0 < r < re`, else 0 (Koshizuka & Oka 1996).
 #[inline]
 pub fn weight(r: f64, re: f64) -> f64 {
@@ -10,6 +20,21 @@ pub fn weight(r: f64, re: f64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// Smooth weight `(1 - q)^4 (1 + 4 q)`, `q = r/re`, for `0 < r < re`, else 0 (Wendland's
+/// C2 function): a number density by it hardly changes under an area-preserving strain of
+/// the arrangement, where the MPS weight's grows (docs/decisions.md, "A DS preset for
+/// strained bodies").
+#[inline]
+pub fn smooth_weight(r: f64, re: f64) -> f64 {
+    on_support(r, re, |q| (1.0 - q).powi(4) * (1.0 + 4.0 * q))
+}
+
+/// Minus the derivative of [`smooth_weight`], `-dW/dr = 20 q (1 - q)^3 / re` (1/m).
+#[inline]
+pub fn smooth_slope(r: f64, re: f64) -> f64 {
+    on_support(r, re, |q| 20.0 * q * (1.0 - q).powi(3) / re)
 }
 
 /// Constants of one kernel radius, measured on a perfect lattice around an interior particle.
@@ -25,6 +50,11 @@ pub struct KernelConstants {
     pub h0: f64,
     /// Number of lattice neighbours with `r < re`.
     pub neighbours: usize,
+    /// Reference number density by [`smooth_weight`], `sum W(r_ij)` (dimensionless).
+    pub n0_smooth: f64,
+    /// `sum -W'(r_ij) r_ij` over the lattice neighbours (dimensionless): the rate of the
+    /// smooth number density under a uniform expansion is minus this times the strain rate.
+    pub s0_smooth: f64,
 }
 
 impl KernelConstants {
@@ -33,9 +63,12 @@ impl KernelConstants {
     pub fn on_lattice<const D: usize>(re: f64, l0: f64) -> Self {
         let k = (re / l0).ceil() as i64 + 1;
         let (mut n0, mut r2w, mut h0, mut count) = (0.0, 0.0, 0.0, 0usize);
+        let (mut n0_smooth, mut s0_smooth) = (0.0, 0.0);
         for_each_lattice_offset::<D>(k, |off| {
             let r = (off * l0).norm();
             let w = weight(r, re);
+            n0_smooth += smooth_weight(r, re);
+            s0_smooth += smooth_slope(r, re) * r;
             if w > 0.0 {
                 n0 += w;
                 r2w += r * r * w;
@@ -49,6 +82,8 @@ impl KernelConstants {
             lambda: r2w / n0,
             h0,
             neighbours: count,
+            n0_smooth,
+            s0_smooth,
         }
     }
 }
@@ -130,5 +165,23 @@ mod tests {
         let a = KernelConstants::on_lattice::<2>(0.021, 0.01);
         assert!((a.n0 - 6.5397).abs() < 1e-4);
         assert!((a.lambda / 1e-4 - 1.3884).abs() < 1e-4);
+    }
+
+    /// The smooth kernel: zero with zero slope at `re`, one at the centre, its slope the
+    /// derivative of its weight (central differences), and its lattice sums at 3.1 l0 in 2D
+    /// (`n0_smooth` 3.3330, `s0_smooth` 8.6021, computed independently).
+    #[test]
+    fn smooth_kernel_and_its_lattice_sums() {
+        let re = 0.031;
+        assert_eq!(smooth_weight(re, re), 0.0);
+        assert!((smooth_weight(1e-12, re) - 1.0).abs() < 1e-9);
+        for r in [0.002, 0.01, 0.02, 0.03] {
+            let h = 1e-7;
+            let fd = -(smooth_weight(r + h, re) - smooth_weight(r - h, re)) / (2.0 * h);
+            assert!((fd - smooth_slope(r, re)).abs() < 1e-6 * smooth_slope(0.01, re));
+        }
+        let c = KernelConstants::on_lattice::<2>(0.031, 0.01);
+        assert!((c.n0_smooth - 3.3330).abs() < 1e-4, "{}", c.n0_smooth);
+        assert!((c.s0_smooth - 8.6021).abs() < 1e-4, "{}", c.s0_smooth);
     }
 }

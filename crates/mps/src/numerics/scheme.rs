@@ -1,7 +1,7 @@
 //! Numerical schemes as data: one plain struct of every choice the step reads, the paper's
-//! four named presets (equations.md section 8) and one beyond the paper (the DS preset with
-//! the interface repulsion of `numerics::interface_repulsion`). Overrides from a case file are
-//! applied by `input::scheme_spec`.
+//! four named presets (equations.md section 8) and two beyond the paper (the DS preset with
+//! the interface repulsion of `numerics::interface_repulsion`, and the DS preset for strained
+//! bodies). Overrides from a case file are applied by `input::scheme_spec`.
 
 use super::collision::Collision;
 use super::density::DensityAverage;
@@ -81,6 +81,12 @@ pub struct Preset {
     pub ds_weighting: DsWeighting,
     /// GC where the moment matrix is near-singular (used where `gradient_correction`).
     pub gc_fallback: GcFallback,
+    /// What DS does to velocities (used where `ds`).
+    pub ds_velocity: DsVelocity,
+    /// Normalisation of the HS source (used where the source is HS).
+    pub hs_normalization: HsNormalization,
+    /// Drift control on the HS source (used where the source is HS).
+    pub drift: DriftControl,
 }
 
 /// The paper's DS scheme, MPS-HS-GC-DS (equations.md section 8).
@@ -100,10 +106,13 @@ const DS_PRESET: Preset = Preset {
     surface_pressure: SurfacePressure::EdgeSurface,
     ds_weighting: DsWeighting::SurfaceFull,
     gc_fallback: GcFallback::Floored,
+    ds_velocity: DsVelocity::Restoring,
+    hs_normalization: HsNormalization::Consistent,
+    drift: DriftControl::Gamma,
 };
 
-/// The paper's presets (equations.md section 8), then the one beyond the paper.
-pub const PRESETS: [Preset; 5] = [
+/// The paper's presets (equations.md section 8), then the two beyond the paper.
+pub const PRESETS: [Preset; 6] = [
     Preset {
         name: "MPS",
         gradient: GradientModel::Original,
@@ -116,6 +125,9 @@ pub const PRESETS: [Preset; 5] = [
         surface_pressure: SurfacePressure::Zero,
         ds_weighting: DsWeighting::Kernel,
         gc_fallback: GcFallback::Identity,
+        ds_velocity: DsVelocity::Restoring,
+        hs_normalization: HsNormalization::Consistent,
+        drift: DriftControl::Gamma,
     },
     Preset {
         name: "CMPS-HS",
@@ -129,6 +141,9 @@ pub const PRESETS: [Preset; 5] = [
         surface_pressure: SurfacePressure::Zero,
         ds_weighting: DsWeighting::Kernel,
         gc_fallback: GcFallback::Identity,
+        ds_velocity: DsVelocity::Restoring,
+        hs_normalization: HsNormalization::Consistent,
+        drift: DriftControl::Gamma,
     },
     Preset {
         name: "MPS-HS-GC",
@@ -142,6 +157,9 @@ pub const PRESETS: [Preset; 5] = [
         surface_pressure: SurfacePressure::Zero,
         ds_weighting: DsWeighting::Kernel,
         gc_fallback: GcFallback::Identity,
+        ds_velocity: DsVelocity::Restoring,
+        hs_normalization: HsNormalization::Consistent,
+        drift: DriftControl::Gamma,
     },
     DS_PRESET,
     // Beyond the paper: MPS-HS-GC-DS with a repulsion between unlike fluid particles, which
@@ -155,6 +173,18 @@ pub const PRESETS: [Preset; 5] = [
         surface_pressure: SurfacePressure::MeanSurface,
         ds_weighting: DsWeighting::Kernel,
         gc_fallback: GcFallback::Identity,
+        ..DS_PRESET
+    },
+    // Beyond the paper: MPS-HS-GC-DS for free bodies under strain. Its source and drift
+    // control measure the number density by a smooth kernel (no false compression where
+    // the arrangement is strained at constant area), and DS cancels only each active pair's
+    // approach (its losses no longer grow as the step falls): docs/decisions.md, "A DS
+    // preset for strained bodies".
+    Preset {
+        name: "MPS-HS-GC-DS-S",
+        ds_velocity: DsVelocity::Inelastic,
+        hs_normalization: HsNormalization::Smooth,
+        drift: DriftControl::SmoothGamma,
         ..DS_PRESET
     },
 ];
@@ -201,13 +231,9 @@ impl Preset {
             },
             source: PpeSource {
                 model: self.source,
-                hs_normalization: HsNormalization::Consistent,
+                hs_normalization: self.hs_normalization,
                 pnd_relaxation: defaults::PND_RELAXATION,
-                drift: if hs {
-                    DriftControl::Gamma
-                } else {
-                    DriftControl::None
-                },
+                drift: if hs { self.drift } else { DriftControl::None },
                 gamma: defaults::GAMMA,
             },
             clamp_negative_pressure: self.clamp_negative_pressure,
@@ -238,7 +264,7 @@ impl Preset {
                 alpha: defaults::DS_ALPHA,
                 weighting: self.ds_weighting,
                 walls: true,
-                velocity: DsVelocity::Restoring,
+                velocity: self.ds_velocity,
             }),
             shifting: None,
             interface_repulsion: (self.interface_repulsion > 0.0).then_some(InterfaceRepulsion {
@@ -317,12 +343,22 @@ mod tests {
             .iter()
             .all(|p| p.scheme().gradient.gc_fallback == GcFallback::Identity));
         assert!(ir.interface_repulsion.unwrap().pressure > 0.0);
-        // DS's velocities and the HS normalisation are the paper's in every preset.
-        assert!(PRESETS
-            .iter()
-            .map(|p| p.scheme())
-            .all(|s| s.ds.is_none_or(|d| d.velocity == DsVelocity::Restoring)
-                && s.source.hs_normalization == HsNormalization::Consistent));
+        // The strained-body preset: the DS preset but for DS's velocities, the HS source and
+        // the drift control; the others keep the paper's.
+        let st = Scheme::preset("MPS-HS-GC-DS-S").unwrap();
+        assert_eq!(st.ds.unwrap().velocity, DsVelocity::Inelastic);
+        assert_eq!(st.source.hs_normalization, HsNormalization::Smooth);
+        assert_eq!(st.source.drift, DriftControl::SmoothGamma);
+        let mut back = st.clone();
+        back.name = d.name.clone();
+        back.ds = d.ds;
+        back.source = d.source;
+        assert_eq!(back, d);
+        assert!(PRESETS[..5].iter().map(|p| p.scheme()).all(|s| s
+            .ds
+            .is_none_or(|d| d.velocity == DsVelocity::Restoring)
+            && s.source.hs_normalization == HsNormalization::Consistent
+            && s.source.drift != DriftControl::SmoothGamma));
         assert!(Scheme::preset("SPH").is_none());
     }
 }

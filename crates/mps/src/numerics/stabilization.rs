@@ -33,8 +33,9 @@ pub enum DsVelocity {
     /// leaves the step separating at `delta / dt`.
     Restoring,
     /// The positions are restored as in the paper, but the velocities only lose the pair's
-    /// approach along its line (an inelastic contact, beyond the paper): each step's
-    /// velocity change is bounded by the approach speed, not `delta / dt`.
+    /// approach along its line (an inelastic contact, beyond the paper), and the sliding
+    /// across it falls as the pair moves apart so that the pair keeps its angular momentum:
+    /// each step's velocity change is bounded by the pair's own motion, not `delta / dt`.
     Inelastic,
 }
 
@@ -121,9 +122,17 @@ pub fn ds_acceleration<const D: usize>(
             // The pair's approach speed after the pressure step, cancelled in i's share.
             let u_i = v.vel[i] + acc[i] * dt;
             let u_j = v.vel[j] + acc[j] * dt;
-            let approach = -(u_j - u_i).dot(&e);
+            let u_ij = u_j - u_i;
+            let approach = -u_ij.dot(&e);
             if approach > 0.0 {
                 out.dvel -= e * (share * approach * w);
+            }
+            if !solid {
+                // Moved apart from s to s + w delta, the pair keeps its angular momentum: its
+                // relative sliding falls by the factor s / (s + w delta).
+                let s = (s_par * s_par + s_perp * s_perp).sqrt();
+                let sliding = u_ij + e * approach;
+                out.dvel += sliding * (share * w * delta / (s + w * delta));
             }
         }
         if solid || i < j {
@@ -254,8 +263,9 @@ mod tests {
 
     /// `inelastic`: the positions are restored as the paper's DS restores them, but the
     /// velocities only lose the pair's approach along its line, whatever the step (the
-    /// paper's velocity change, `dt Pi`, grows as `1/dt`); momentum is conserved, and a pair
-    /// already separating keeps its velocities.
+    /// paper's velocity change, `dt Pi`, grows as `1/dt`), and the sliding that keeps the
+    /// pair's angular momentum as it moves apart; momentum is conserved, and a pair already
+    /// separating keeps its velocities along its line.
     #[test]
     fn inelastic_ds_cancels_the_approach_whatever_the_step() {
         let l0 = 0.01;
@@ -294,7 +304,13 @@ mod tests {
                 "approach left {}",
                 u1[0] - u0[0]
             );
-            assert_eq!((u0[1], u1[1]), (0.0, 0.2), "the sliding is kept");
+            // Moved from 0.8 to 0.9 l0, the pair keeps its angular momentum about its
+            // centre of mass: the relative sliding falls to 0.8 / 0.9 of 0.2 m/s.
+            let sliding = u1[1] - u0[1];
+            assert!(
+                (0.9 * sliding - 0.8 * 0.2).abs() < 1e-15,
+                "sliding {sliding}"
+            );
             assert!((c0.dvel * rho[0] + c1.dvel * rho[1]).norm() < 1e-12);
             // The light particle takes the larger share of the 0.3 m/s.
             assert!((c1.dvel[0] - 0.3 * 2650.0 / 3650.0).abs() < 1e-12);
