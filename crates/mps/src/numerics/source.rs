@@ -228,4 +228,48 @@ mod tests {
         let div = div_of(lattice(1.0), &|x| *x * eps, HsNormalization::Smooth);
         assert!((div - 2.0 * eps).abs() < 1e-12, "div {div}");
     }
+
+    /// `smooth-gamma` on a lattice compressed to 0.98 l0 at rest: away from the free surface
+    /// the drift term is `gamma (N - N0) / (N0 dt^2)` with `N` the smooth kernel's sum (here
+    /// about 9 % above N0), and with a free-surface particle within re_lap it is the MPS
+    /// number density's (given as 1.3 n0).
+    #[test]
+    fn the_smooth_drift_control_falls_back_to_the_mps_density_near_the_surface() {
+        let (l0, h) = (0.01, 0.0098);
+        let mut pos = Vec::new();
+        for a in -8..=8 {
+            for b in -8..=8 {
+                pos.push(Vector([a as f64 * h, b as f64 * h]));
+            }
+        }
+        let c = pos.iter().position(|x| x.norm() == 0.0).unwrap();
+        let k = Kernels::new::<2>(l0, 2.1, 3.1);
+        let n = pos.len();
+        let mut cloud = Cloud::new(
+            pos.clone(),
+            vec![Vector::zero(); n],
+            vec![1000.0; n],
+            1.3 * k.grad.n0,
+            3.1 * l0,
+        );
+        let mut src = crate::numerics::scheme::Scheme::preset("MPS-HS-GC")
+            .unwrap()
+            .source;
+        src.drift = DriftControl::SmoothGamma;
+        let dt = 1e-3;
+        let big_n: f64 = pos
+            .iter()
+            .map(|x| crate::numerics::kernel::smooth_weight(x.norm(), k.lap.re))
+            .sum();
+        let rel = big_n / k.lap.n0_smooth - 1.0;
+        assert!(rel > 0.05 && rel < 0.15, "{rel}");
+        let drift = |cloud: &Cloud<2>| source(c, &cloud.view(), &k, &src, dt) * dt * dt / src.gamma;
+        assert!(
+            (drift(&cloud) - rel).abs() < 1e-12,
+            "{} vs {rel}",
+            drift(&cloud)
+        );
+        cloud.set_surface(|x| x[1] > 2.5 * h);
+        assert!((drift(&cloud) - 0.3).abs() < 1e-12, "{}", drift(&cloud));
+    }
 }
