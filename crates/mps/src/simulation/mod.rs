@@ -111,6 +111,9 @@ pub struct Simulation<const D: usize> {
     /// The densities before the step's stage 3 set the walls' (restored on breakdown).
     density_before: Vec<f64>,
     skin: f64,
+    /// The positions (m) the neighbour lists were built at; empty when the lists must be
+    /// built afresh at the next step (docs/decisions.md, "Neighbour lists kept").
+    lists_built_at: Vec<Vector<D>>,
     /// The last PPE had no Dirichlet row (a closed domain, its level from the reference).
     closed: bool,
     /// The processes sharing a distributed run (`None` on one process): `domain.rs`.
@@ -206,6 +209,7 @@ impl<const D: usize> Simulation<D> {
             undo: Undo::default(),
             density_before: Vec::new(),
             skin: SKIN * l0,
+            lists_built_at: Vec::new(),
             spare_near: None,
             search: NeighborSearch::default(),
             spare: Default::default(),
@@ -380,6 +384,7 @@ impl<const D: usize> Simulation<D> {
     /// called where a checkpoint is written, so a restarted run continues bit-identically.
     pub fn reset_solver_cache(&mut self) {
         self.solver.reset();
+        self.lists_built_at.clear();
     }
 
     /// A settled start: positions, velocities and pressures from `settled` (the particles of
@@ -425,6 +430,7 @@ impl<const D: usize> Simulation<D> {
     /// Rebuilds the neighbour lists at the current positions (after a restore).
     pub fn rebuild_neighbors(&mut self) {
         self.neighbors = self.neighbors_at(&self.particles.position);
+        self.lists_built_at.clear();
     }
 
     /// Neighbour lists at positions `pos` (m) for the fluid and every wall or dummy particle
@@ -475,6 +481,25 @@ impl<const D: usize> Simulation<D> {
         let mut search = std::mem::take(&mut self.search);
         self.neighbors_into(pos, &mut search, &mut lists);
         (self.neighbors, self.search) = (lists, search);
+        if !self.is_distributed() {
+            self.lists_built_at.clear();
+            self.lists_built_at.extend_from_slice(pos);
+        }
+    }
+
+    /// The largest distance (m) a particle of `pos` lies from where the neighbour lists
+    /// were built (infinite when they must be built afresh).
+    fn moved_since_lists(&self, pos: &[Vector<D>]) -> f64 {
+        use rayon::prelude::*;
+        let built = &self.lists_built_at;
+        if built.len() != pos.len() {
+            return f64::INFINITY;
+        }
+        (0..pos.len())
+            .into_par_iter()
+            .map(|i| (pos[i] - built[i]).norm2())
+            .reduce(|| 0.0, f64::max)
+            .sqrt()
     }
 
     /// Recomputes number density, free-surface flags and wall pressures at the current

@@ -96,6 +96,11 @@ impl<const D: usize> Simulation<D> {
         }
         if self.step_count.is_multiple_of(REORDER_EVERY) {
             self.reorder();
+            self.lists_built_at.clear();
+        }
+        // Kept while every particle lies within half the skin of where they were built.
+        if 2.0 * self.moved_since_lists(&self.particles.position) < self.skin {
+            return;
         }
         // Built into the old lists' memory (a fresh list of a million particles would be
         // faulted in page by page every step: docs/decisions.md, "Neighbour lists in place").
@@ -159,7 +164,8 @@ impl<const D: usize> Simulation<D> {
         Some(surface_force(&inp, &self.interfaces))
     }
 
-    /// Rebuilds the neighbour lists at `r*` when a particle moved more than half the skin.
+    /// Rebuilds the neighbour lists at `r*` when a particle lies more than half the skin from
+    /// where they were built.
     pub(super) fn keep_neighbors_valid(&mut self, pred: &Predicted<D>) -> Result<(), Failure> {
         let old = &self.particles.position;
         let max_move = (0..pred.pos.len())
@@ -170,7 +176,12 @@ impl<const D: usize> Simulation<D> {
         if !max_move.is_finite() {
             return Err(BreakdownReason::NotFinite.into());
         }
-        if 2.0 * max_move > self.skin {
+        // On one process the lists may date from an earlier step (`update_neighbors`).
+        let moved = match self.is_distributed() {
+            true => max_move,
+            false => self.moved_since_lists(&pred.pos),
+        };
+        if 2.0 * moved > self.skin {
             self.timed(Stage::Neighbors, |s| s.renew_neighbors(&pred.pos));
         }
         Ok(())
