@@ -314,6 +314,10 @@ pub struct PhaseSpec {
     /// Kinematic viscosity (m^2/s).
     #[serde(default)]
     pub viscosity: f64,
+    /// Tension of the phase's free surface (N/m; beyond the paper, whose cases have none):
+    /// a continuum surface force against the void (`numerics::interfacial_tension`).
+    #[serde(default)]
+    pub surface_tension: f64,
 }
 
 /// An interface between two immiscible phases with its tension (`[[interfaces]]`; beyond
@@ -664,15 +668,18 @@ pub enum ValidationSpec {
         /// Initial strain rate `A0` (1/s).
         strain_rate: f64,
     },
-    /// A drop at rest under interfacial tension (the case's one `[[interfaces]]` entry):
-    /// the pressure jump between a probe inside and one outside, each averaged from `from`
-    /// (s) to the end, against the Laplace law `sigma (d - 1) / R` (`sigma / R` for a
-    /// circle, `2 sigma / R` for a sphere), within `tolerance` (relative).
+    /// A drop at rest under interfacial tension (the case's one `[[interfaces]]` entry) or,
+    /// with no interface and no `outside` probe, a free drop under its phase's
+    /// `surface_tension`: the pressure jump between a probe inside and one outside (the
+    /// void's 0 Pa for a free drop), each averaged from `from` (s) to the end, against the
+    /// Laplace law `sigma (d - 1) / R` (`sigma / R` for a circle, `2 sigma / R` for a
+    /// sphere), within `tolerance` (relative).
     Laplace {
         /// Probe inside the drop.
         inside: String,
-        /// Probe outside the drop.
-        outside: String,
+        /// Probe outside the drop (none for a free drop).
+        #[serde(default)]
+        outside: Option<String>,
         /// Drop radius `R` (m).
         radius: f64,
         /// Start of the averaging window (s).

@@ -278,10 +278,17 @@ impl Case {
         else {
             return Ok(());
         };
-        if self.interfaces.len() != 1 {
+        let free = self.phases.iter().filter(|p| p.surface_tension > 0.0).count();
+        let outside = matches!(v, ValidationSpec::Laplace { outside: Some(_), .. });
+        if outside && self.interfaces.len() != 1 {
             let n = self.interfaces.len().to_string();
-            let msg = "the Laplace check needs exactly one [[interfaces]] entry";
+            let msg = "the Laplace check with an outside probe needs exactly one [[interfaces]] entry";
             return c.fail("interfaces", n, msg);
+        }
+        if !outside && (free != 1 || !self.interfaces.is_empty()) {
+            let n = free.to_string();
+            let msg = "the Laplace check of a free drop (no outside probe) needs exactly one phase with a surface_tension and no [[interfaces]]";
+            return c.fail("phases", n, msg);
         }
         c.positive("validation.radius", radius)?;
         c.positive("validation.tolerance", tol)?;
@@ -381,6 +388,9 @@ impl Case {
             let nu_ok = p.viscosity >= 0.0 && p.viscosity.is_finite();
             let field = format!("phases.{k}.viscosity");
             c.require(nu_ok, &field, p.viscosity, "must be zero or positive")?;
+            let sigma_ok = p.surface_tension >= 0.0 && p.surface_tension.is_finite();
+            let field = format!("phases.{k}.surface_tension");
+            c.require(sigma_ok, &field, p.surface_tension, "must be zero or positive")?;
             if self.phases[..k].iter().any(|q| q.name == p.name) {
                 let field = format!("phases.{k}.name");
                 return c.fail(&field, format!("{:?}", p.name), "duplicate phase name");
@@ -539,10 +549,8 @@ impl Case {
             inside, outside, ..
         }) = &self.validation
         {
-            for (field, probe) in [
-                ("validation.inside", inside),
-                ("validation.outside", outside),
-            ] {
+            let named = [("validation.inside", Some(inside)), ("validation.outside", outside.as_ref())];
+            for (field, probe) in named.into_iter().filter_map(|(f, p)| Some((f, p?))) {
                 if !self.probes.iter().any(|p| &p.name == probe) {
                     return c.fail(field, format!("{probe:?}"), "no probe of this name");
                 }

@@ -23,7 +23,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SolverKind {
-    /// Below [`AUTO_AMG_UNKNOWNS`] unknowns modified D-ILU-CG, AMG-CG from there on.
+    /// Below [`AUTO_AMG_UNKNOWNS`] unknowns MIC(0)-CG in 2D and modified D-ILU-CG in 3D,
+    /// AMG-CG from there on.
     Auto,
     /// Unpreconditioned conjugate gradient.
     Cg,
@@ -39,8 +40,8 @@ pub enum SolverKind {
     DiluCg,
 }
 
-/// PPE size (unknowns) from which `auto` picks AMG-CG over D-ILU-CG (docs/decisions.md,
-/// "Solver choice", "MIC(0)", "Modified D-ILU").
+/// PPE size (unknowns) from which `auto` picks AMG-CG over MIC(0)-CG and D-ILU-CG
+/// (docs/decisions.md, "Solver choice", "MIC(0)", "Modified D-ILU").
 pub const AUTO_AMG_UNKNOWNS: usize = 8000;
 
 /// Relaxation of MIC(0): the share of the dropped fill moved to the diagonal
@@ -52,13 +53,14 @@ pub const DILU_OMEGA: f64 = 0.99;
 
 impl SolverKind {
     /// The solver `auto` stands for at `unknowns` rows in `dimension` 2 or 3; other kinds
-    /// are themselves. D-ILU needs no factor (in 3D, with about 120 neighbours a row,
-    /// MIC(0)'s set-up costs as much as its solve) and its iterations are cheaper than
-    /// MIC(0)'s (docs/decisions.md, "Modified D-ILU", "D-ILU the 2D default").
-    pub fn for_size(self, unknowns: usize, _dimension: usize) -> SolverKind {
+    /// are themselves. In 3D a row has about 120 neighbours and MIC(0)'s set-up costs as much
+    /// as its solve; D-ILU needs none (docs/decisions.md, "Modified D-ILU"; in 2D it is
+    /// faster too, but not the default: "Neighbour lists kept").
+    pub fn for_size(self, unknowns: usize, dimension: usize) -> SolverKind {
         match self {
             SolverKind::Auto if unknowns >= AUTO_AMG_UNKNOWNS => SolverKind::AmgCg,
-            SolverKind::Auto => SolverKind::DiluCg,
+            SolverKind::Auto if dimension == 3 => SolverKind::DiluCg,
+            SolverKind::Auto => SolverKind::Mic0Cg,
             k => k,
         }
     }

@@ -27,10 +27,13 @@ const NORMAL_THRESHOLD: f64 = 0.05;
 pub struct Interfaces {
     /// Per phase, `(other phase, tension, density factor)` for each interface it has.
     pub of_phase: Vec<Vec<(u16, f64, f64)>>,
+    /// Per phase, the tension of its free surface (N/m; 0 for none), which
+    /// `numerics::free_surface_tension` turns into the surface's Dirichlet value.
+    pub free_surface: Vec<f64>,
 }
 
 impl Interfaces {
-    /// True when no phase has an interface.
+    /// True when no phase has an interface with another.
     pub fn is_empty(&self) -> bool {
         self.of_phase.iter().all(|v| v.is_empty())
     }
@@ -50,6 +53,11 @@ pub struct TensionInput<'a, const D: usize> {
     pub phase: &'a [u16],
     /// Whether each particle is fluid.
     pub fluid: &'a [bool],
+    /// The smooth kernel's lattice moment `sum -W'(r) r` at `re` (dimensionless), for the
+    /// free-surface colour gradient.
+    pub s0: f64,
+    /// The free-surface flags of the last step.
+    pub surface: &'a [bool],
 }
 
 /// Colour gradient (1/m) of particle `i` for the colour "phase `b`", over fluid neighbours.
@@ -167,6 +175,7 @@ pub fn surface_force<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::numerics::kernel::KernelConstants;
     use crate::particles::neighbors::build_neighbor_list;
 
     /// A square lattice of spacing `l0` filling `[-L, L]^2` with a disc of phase 1 of
@@ -188,6 +197,7 @@ mod tests {
     fn interfaces(sigma: f64) -> Interfaces {
         Interfaces {
             of_phase: vec![vec![(1, sigma, 1.0)], vec![(0, sigma, 1.0)]],
+            free_surface: vec![0.0; 2],
         }
     }
 
@@ -203,6 +213,8 @@ mod tests {
             l0,
             phase,
             fluid: &fluid,
+            s0: KernelConstants::on_lattice::<2>(re, l0).s0_smooth,
+            surface: &vec![false; pos.len()],
         };
         surface_force(&inp, &interfaces(sigma))
     }

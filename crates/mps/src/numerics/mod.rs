@@ -9,6 +9,7 @@
 
 pub mod collision;
 pub mod density;
+pub mod free_surface_tension;
 pub mod gradient;
 pub mod interface_repulsion;
 pub mod interfacial_tension;

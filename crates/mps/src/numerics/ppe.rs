@@ -47,6 +47,9 @@ pub struct PressureSystem {
     /// Dirichlet value of every particle (Pa): 0 but for free-surface fluid particles with
     /// `surface_pressure = "mean-surface"`; empty when all are 0.
     pub dirichlet_value: Vec<f64>,
+    /// The Young-Laplace jump (Pa) each free-surface particle adds to its Dirichlet value
+    /// (`numerics::free_surface_tension`), set before the assembly; empty for none.
+    pub surface_jump: Vec<f64>,
     /// Per particle, whether it has no row (the assembly's scratch, kept).
     no_row: Vec<bool>,
 }
@@ -317,7 +320,15 @@ pub fn assemble_into<const D: usize>(
     dirichlet.clear();
     if s.surface_pressure != SurfacePressure::Zero && !closed {
         let edge = s.surface_pressure.edge(k.l0);
-        dirichlet_values_into(v, previous, k, edge, &mut dirichlet);
+        dirichlet_values_into(v, previous, k, (edge, &sys.surface_jump), &mut dirichlet);
+    }
+    if !sys.surface_jump.is_empty() && !closed {
+        dirichlet.resize(n, 0.0);
+        for (i, d) in dirichlet.iter_mut().enumerate() {
+            if sys.no_row[i] && v.free_surface[i] && Some(i) != held {
+                *d += sys.surface_jump[i];
+            }
+        }
     }
     let ctx = Rows {
         dirichlet: &dirichlet,

@@ -77,7 +77,7 @@ pub fn dirichlet_values<const D: usize>(
     edge: f64,
 ) -> Vec<f64> {
     let mut out = Vec::new();
-    dirichlet_values_into(v, previous, k, edge, &mut out);
+    dirichlet_values_into(v, previous, k, (edge, &[]), &mut out);
     out
 }
 
@@ -87,14 +87,15 @@ pub fn dirichlet_values_into<const D: usize>(
     v: &View<D>,
     previous: &[f64],
     k: &Kernels,
-    edge: f64,
+    (edge, levels): (f64, &[f64]),
     out: &mut Vec<f64>,
 ) {
     (0..v.pos.len())
         .into_par_iter()
         .map(|i| {
             let surface = v.kind[i] == Kind::Fluid && v.free_surface[i];
-            match (surface, mean_surface_value(i, v, previous, k, edge)) {
+            let level = levels.get(i).copied().unwrap_or(0.0);
+            match (surface, mean_surface_value(i, v, previous, k, (edge, level))) {
                 (false, _) => 0.0,
                 (true, Some(p)) => p,
                 (true, None) if edge > 0.0 => f64::NAN,
@@ -147,7 +148,7 @@ fn mean_surface_value<const D: usize>(
     v: &View<D>,
     previous: &[f64],
     k: &Kernels,
-    edge: f64,
+    (edge, level): (f64, f64),
 ) -> Option<f64> {
     let (re, l0) = (k.grad.re, k.l0);
     let mut centroid = Vector::<D>::zero();
@@ -172,10 +173,10 @@ fn mean_surface_value<const D: usize>(
     let (mut num, mut den, mut count, mut bound) = (0.0, 0.0, 0, 0.0f64);
     for q in v.pairs(i, re).filter(|q| !v.free_surface[q.j]) {
         let d = q.xij.dot(&n) + s - edge;
-        num += q.w * previous[q.j] * d;
+        num += q.w * (previous[q.j] - level) * d;
         den += q.w * d * d;
         count += 1;
-        bound = bound.max(previous[q.j].abs());
+        bound = bound.max((previous[q.j] - level).abs());
     }
     if count < 2 || den <= 0.0 {
         return Some(0.0);

@@ -424,8 +424,13 @@ fn laplace<const D: usize>(
             .collect();
         (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
     };
-    let sigma = case.interfaces.first().map_or(0.0, |f| f.tension);
-    let (a, b) = (mean(inside)?, mean(outside)?);
+    let free = case.phases.iter().map(|p| p.surface_tension).fold(0.0, f64::max);
+    let sigma = case.interfaces.first().map_or(free, |f| f.tension);
+    let b = match outside {
+        Some(o) => mean(o)?,
+        None => 0.0,
+    };
+    let a = mean(inside)?;
     Some(laplace_jump(a - b, sigma, *radius, dimension, *tolerance))
 }
 

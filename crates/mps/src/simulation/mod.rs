@@ -159,7 +159,15 @@ fn interfaces_of(case: &Case) -> Interfaces {
             of_phase[b].push((a as u16, f.tension, factor));
         }
     }
-    Interfaces { of_phase }
+    let free_surface = case
+        .phases
+        .iter()
+        .map(|p| p.surface_tension)
+        .collect();
+    Interfaces {
+        of_phase,
+        free_surface,
+    }
 }
 
 impl<const D: usize> Simulation<D> {

@@ -8,6 +8,7 @@ use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::interface_repulsion::interface_repulsion;
+use crate::numerics::free_surface_tension::laplace_jump;
 use crate::numerics::interfacial_tension::{surface_force, TensionInput};
 use crate::numerics::operators::{laplacian_vector, number_density};
 use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
@@ -148,7 +149,8 @@ impl<const D: usize> Simulation<D> {
 
     /// Stage 2a: the interfacial-tension accelerations at `r` (`None` without interfaces).
     fn surface_tension(&self) -> Option<Vec<Vector<D>>> {
-        if self.interfaces.is_empty() {
+        let csf = std::env::var("MPS_CSF").is_ok();
+        if self.interfaces.is_empty() && !csf {
             return None;
         }
         let p = &self.particles;
@@ -160,8 +162,15 @@ impl<const D: usize> Simulation<D> {
             l0: self.kernels.l0,
             phase: &p.phase,
             fluid: &fluid,
+            s0: self.kernels.lap.s0_smooth,
+            surface: &p.free_surface,
         };
-        Some(surface_force(&inp, &self.interfaces))
+        let mut a = surface_force(&inp, &self.interfaces);
+        if csf {
+            let f = crate::numerics::free_surface_tension::csf_force(&inp, &self.interfaces.free_surface, &p.density);
+            a.iter_mut().zip(&f).for_each(|(a, f)| *a += *f);
+        }
+        Some(a)
     }
 
     /// Rebuilds the neighbour lists at `r*` when a particle lies more than half the skin from
@@ -297,6 +306,9 @@ impl<const D: usize> Simulation<D> {
         }
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
         let previous = &self.particles.pressure;
+        if std::env::var("MPS_CSF").is_err() {
+            sys.surface_jump = self.surface_jump(pred, surf).unwrap_or_default();
+        }
         assemble_into(
             &v,
             previous,
@@ -310,6 +322,33 @@ impl<const D: usize> Simulation<D> {
             self.consistent_across(&mut sys);
         }
         sys
+    }
+
+    /// The Young-Laplace jump (Pa) of every free-surface particle at `r*` under its phase's
+    /// free-surface tension (`None` where no phase has one).
+    fn surface_jump(&self, pred: &Predicted<D>, surf: &DensitySurface) -> Option<Vec<f64>> {
+        let p = &self.particles;
+        let fluid: Vec<bool> = p.kind.iter().map(|k| *k == Kind::Fluid).collect();
+        let inp = TensionInput {
+            pos: &pred.pos,
+            nl: &self.neighbors,
+            re: self.kernels.lap.re,
+            l0: self.kernels.l0,
+            phase: &p.phase,
+            fluid: &fluid,
+            s0: self.kernels.lap.s0_smooth,
+            surface: &surf.free_surface,
+        };
+        let j = laplace_jump(&inp, &self.interfaces.free_surface);
+        if std::env::var("MPS_DBG").is_ok() {
+            if let Some(j) = &j {
+                let on: Vec<f64> = (0..j.len()).filter(|&i| surf.free_surface[i]).map(|i| j[i]).collect();
+                let mean = on.iter().sum::<f64>() / on.len().max(1) as f64;
+                let (lo, hi) = on.iter().fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+                eprintln!("jump: {} flagged, mean {mean:.3} range {lo:.3} {hi:.3}", on.len());
+            }
+        }
+        j
     }
 
     /// A distributed closed domain's reference particle: over every process's own fluid

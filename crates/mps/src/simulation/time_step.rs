@@ -9,8 +9,8 @@ use crate::particles::{Kind, Particles};
 use rayon::prelude::*;
 
 /// The largest time step of a case (s): `time.dt_fixed`, `time.dt_max`, or
-/// `C sqrt(l0/g)` with gravity, `C l0/u0` with only an initial velocity `u0`; unless fixed,
-/// at most the capillary limit of its interfaces.
+/// `C sqrt(l0/g)` with gravity, `C l0/u0` with only an initial velocity `u0`, else the
+/// capillary limit of its surfaces under tension; unless fixed, at most that limit.
 pub fn largest_time_step<const D: usize>(
     case: &Case,
     p: &Particles<D>,
@@ -26,6 +26,7 @@ pub fn largest_time_step<const D: usize>(
         (None, Some(m)) => Ok(m.min(cap)),
         (None, None) if g > 0.0 => Ok((c * (l0 / g).sqrt()).min(cap)),
         (None, None) if u0 > 0.0 => Ok((c * l0 / u0).min(cap)),
+        (None, None) if cap.is_finite() => Ok(cap),
         _ => Err(CaseError::new(
             label,
             "time.dt_max",
@@ -91,40 +92,39 @@ impl<const D: usize> Simulation<D> {
     }
 }
 
-/// The capillary limit of the step (s), `sqrt(rho_mean l0^3 / (2 pi sigma))` over the case's
-/// interfaces (Brackbill, Kothe & Zemach 1992, with `rho_mean` the two phases' mean
-/// density); infinite without interfaces.
-pub fn capillary_time_step(case: &Case) -> f64 {
-    let l0 = case.particles.spacing;
+/// Every surface under tension of the case as `(sigma, rho_mean)` (N/m, kg/m^3): each
+/// interface with its two phases' mean density, and each phase's free surface with half the
+/// phase's density (the void's density is 0 in Brackbill's mean).
+fn tensions(case: &Case) -> impl Iterator<Item = (f64, f64)> + '_ {
     let density = |name: &str| {
         let p = case.phases.iter().find(|p| p.name == name);
         p.map_or(f64::NAN, |p| p.density)
     };
-    case.interfaces
-        .iter()
-        .map(|f| {
-            let rho = 0.5 * (density(&f.phases[0]) + density(&f.phases[1]));
-            (rho * l0.powi(3) / (2.0 * std::f64::consts::PI * f.tension)).sqrt()
-        })
+    let interfaces = case.interfaces.iter().map(move |f| {
+        let rho = 0.5 * (density(&f.phases[0]) + density(&f.phases[1]));
+        (f.tension, rho)
+    });
+    let free = case.phases.iter().filter(|p| p.surface_tension > 0.0);
+    interfaces.chain(free.map(|p| (p.surface_tension, 0.5 * p.density)))
+}
+
+/// The capillary limit of the step (s), `sqrt(rho_mean l0^3 / (2 pi sigma))` over the case's
+/// interfaces and free surfaces under tension (Brackbill, Kothe & Zemach 1992); infinite
+/// without either.
+pub fn capillary_time_step(case: &Case) -> f64 {
+    let l0 = case.particles.spacing;
+    tensions(case)
+        .map(|(sigma, rho)| (rho * l0.powi(3) / (2.0 * std::f64::consts::PI * sigma)).sqrt())
         .fold(f64::INFINITY, f64::min)
 }
 
-/// The capillary speed of the case's interfaces at the particle scale (m/s),
-/// `sqrt(sigma / (rho_mean l0))`, the largest over its interfaces; 0 without interfaces.
-/// A velocity scale for the breakdown speed bound where gravity gives none.
+/// The capillary speed of the case's surfaces under tension at the particle scale (m/s),
+/// `sqrt(sigma / (rho_mean l0))`, the largest; 0 without any. A velocity scale for the
+/// breakdown speed bound where gravity gives none.
 pub fn capillary_speed(case: &Case) -> f64 {
     let l0 = case.particles.spacing;
-    case.interfaces
-        .iter()
-        .map(|f| {
-            let rho: f64 = case
-                .phases
-                .iter()
-                .filter(|p| f.phases.contains(&p.name))
-                .map(|p| 0.5 * p.density)
-                .sum();
-            (f.tension / (rho * l0)).sqrt()
-        })
+    tensions(case)
+        .map(|(sigma, rho)| (sigma / (rho * l0)).sqrt())
         .fold(0.0, f64::max)
 }
 
