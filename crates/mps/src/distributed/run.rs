@@ -48,12 +48,23 @@ impl Processes {
     }
 
     /// Refuses a case whose pieces would be narrower than their halo is deep: each process
-    /// must own at least `(2 depth / l0)^D` particles on average.
+    /// must own at least `(2 depth / l0)^D` particles on average; and a free surface under
+    /// tension, whose smoothed curvature reaches four Laplacian radii, beyond the halo.
     pub fn check_size<const D: usize>(
         &self,
         sim: &Simulation<D>,
         label: &str,
     ) -> Result<(), CaseError> {
+        if let Some((k, p)) =
+            (sim.case.phases.iter().enumerate()).find(|(_, p)| p.surface_tension > 0.0)
+        {
+            return Err(CaseError::new(
+                label,
+                format!("phases.{k}.surface_tension"),
+                p.surface_tension.to_string(),
+                "a free surface under tension runs on one process only",
+            ));
+        }
         let least = (2.0 * halo_depth(sim) / sim.l0()).powi(D as i32).ceil() as usize;
         let (n, p) = (sim.particles.len(), self.size());
         if n < least * p {

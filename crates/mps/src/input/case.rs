@@ -1100,6 +1100,28 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         assert_eq!(e.field, "interfaces.1.phases", "{e}");
     }
 
+    /// A phase's free-surface tension is zero or positive; the free drop's Laplace check (no
+    /// outside probe) needs exactly one phase with one.
+    #[test]
+    fn a_bad_surface_tension_is_named() {
+        let tension = |v: &str| {
+            MINIMAL.replace(
+                "density = 1000.0",
+                &format!("density = 1000.0\nsurface_tension = {v}"),
+            )
+        };
+        let c = Case::from_str_named(&tension("0.072"), "t.toml", &[]).unwrap();
+        assert_eq!(c.phases[0].surface_tension, 0.072);
+        for v in ["-0.1", "nan"] {
+            let e = Case::from_str_named(&tension(v), "t.toml", &[]).unwrap_err();
+            assert_eq!(e.field, "phases.0.surface_tension", "{e}");
+        }
+        let check = "[[probes]]\nname = \"c\"\nposition = [0.0, 0.0]\n[validation]\nkind = \"laplace\"\ninside = \"c\"\nradius = 0.1\n";
+        let e = Case::from_str_named(&format!("{MINIMAL}{check}"), "t.toml", &[]).unwrap_err();
+        assert_eq!(e.field, "phases", "{e}");
+        Case::from_str_named(&format!("{}{check}", tension("0.072")), "t.toml", &[]).unwrap();
+    }
+
     #[test]
     fn unknown_field_is_named() {
         let text = MINIMAL.replace("spacing = 0.05", "spacing = 0.05\nspacin = 1");

@@ -43,6 +43,11 @@ pub const EXAMPLES: &[(&str, &str, &str)] = &[
         include_str!("../../cases/laplace_drop.toml"),
     ),
     (
+        "free_drop",
+        "Free drop under surface tension at rest: centre pressure against the Laplace law",
+        include_str!("../../cases/free_drop.toml"),
+    ),
+    (
         "rotating_disc",
         "Disc in solid rotation: exact steady state under tension (your own free-surface test)",
         include_str!("../../cases/rotating_disc.toml"),

@@ -278,11 +278,22 @@ impl Case {
         else {
             return Ok(());
         };
-        let free = self.phases.iter().filter(|p| p.surface_tension > 0.0).count();
-        let outside = matches!(v, ValidationSpec::Laplace { outside: Some(_), .. });
+        let free = self
+            .phases
+            .iter()
+            .filter(|p| p.surface_tension > 0.0)
+            .count();
+        let outside = matches!(
+            v,
+            ValidationSpec::Laplace {
+                outside: Some(_),
+                ..
+            }
+        );
         if outside && self.interfaces.len() != 1 {
             let n = self.interfaces.len().to_string();
-            let msg = "the Laplace check with an outside probe needs exactly one [[interfaces]] entry";
+            let msg =
+                "the Laplace check with an outside probe needs exactly one [[interfaces]] entry";
             return c.fail("interfaces", n, msg);
         }
         if !outside && (free != 1 || !self.interfaces.is_empty()) {
@@ -390,7 +401,12 @@ impl Case {
             c.require(nu_ok, &field, p.viscosity, "must be zero or positive")?;
             let sigma_ok = p.surface_tension >= 0.0 && p.surface_tension.is_finite();
             let field = format!("phases.{k}.surface_tension");
-            c.require(sigma_ok, &field, p.surface_tension, "must be zero or positive")?;
+            c.require(
+                sigma_ok,
+                &field,
+                p.surface_tension,
+                "must be zero or positive",
+            )?;
             if self.phases[..k].iter().any(|q| q.name == p.name) {
                 let field = format!("phases.{k}.name");
                 return c.fail(&field, format!("{:?}", p.name), "duplicate phase name");
@@ -549,7 +565,10 @@ impl Case {
             inside, outside, ..
         }) = &self.validation
         {
-            let named = [("validation.inside", Some(inside)), ("validation.outside", outside.as_ref())];
+            let named = [
+                ("validation.inside", Some(inside)),
+                ("validation.outside", outside.as_ref()),
+            ];
             for (field, probe) in named.into_iter().filter_map(|(f, p)| Some((f, p?))) {
                 if !self.probes.iter().any(|p| &p.name == probe) {
                     return c.fail(field, format!("{probe:?}"), "no probe of this name");

@@ -95,7 +95,10 @@ pub fn dirichlet_values_into<const D: usize>(
         .map(|i| {
             let surface = v.kind[i] == Kind::Fluid && v.free_surface[i];
             let level = levels.get(i).copied().unwrap_or(0.0);
-            match (surface, mean_surface_value(i, v, previous, k, (edge, level))) {
+            match (
+                surface,
+                mean_surface_value(i, v, previous, k, (edge, level)),
+            ) {
                 (false, _) => 0.0,
                 (true, Some(p)) => p,
                 (true, None) if edge > 0.0 => f64::NAN,

@@ -424,7 +424,11 @@ fn laplace<const D: usize>(
             .collect();
         (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
     };
-    let free = case.phases.iter().map(|p| p.surface_tension).fold(0.0, f64::max);
+    let free = case
+        .phases
+        .iter()
+        .map(|p| p.surface_tension)
+        .fold(0.0, f64::max);
     let sigma = case.interfaces.first().map_or(free, |f| f.tension);
     let b = match outside {
         Some(o) => mean(o)?,

@@ -159,11 +159,7 @@ fn interfaces_of(case: &Case) -> Interfaces {
             of_phase[b].push((a as u16, f.tension, factor));
         }
     }
-    let free_surface = case
-        .phases
-        .iter()
-        .map(|p| p.surface_tension)
-        .collect();
+    let free_surface = case.phases.iter().map(|p| p.surface_tension).collect();
     Interfaces {
         of_phase,
         free_surface,

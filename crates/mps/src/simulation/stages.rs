@@ -6,9 +6,9 @@ use super::pressure_solver::{stopping_tolerance, SolveReport};
 use super::{Simulation, Stage, StepReport};
 use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
+use crate::numerics::free_surface_tension::laplace_jump;
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::interface_repulsion::interface_repulsion;
-use crate::numerics::free_surface_tension::laplace_jump;
 use crate::numerics::interfacial_tension::{surface_force, TensionInput};
 use crate::numerics::operators::{laplacian_vector, number_density};
 use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
@@ -149,8 +149,7 @@ impl<const D: usize> Simulation<D> {
 
     /// Stage 2a: the interfacial-tension accelerations at `r` (`None` without interfaces).
     fn surface_tension(&self) -> Option<Vec<Vector<D>>> {
-        let csf = std::env::var("MPS_CSF").is_ok();
-        if self.interfaces.is_empty() && !csf {
+        if self.interfaces.is_empty() {
             return None;
         }
         let p = &self.particles;
@@ -165,12 +164,7 @@ impl<const D: usize> Simulation<D> {
             s0: self.kernels.lap.s0_smooth,
             surface: &p.free_surface,
         };
-        let mut a = surface_force(&inp, &self.interfaces);
-        if csf {
-            let f = crate::numerics::free_surface_tension::csf_force(&inp, &self.interfaces.free_surface, &p.density);
-            a.iter_mut().zip(&f).for_each(|(a, f)| *a += *f);
-        }
-        Some(a)
+        Some(surface_force(&inp, &self.interfaces))
     }
 
     /// Rebuilds the neighbour lists at `r*` when a particle lies more than half the skin from
@@ -306,9 +300,7 @@ impl<const D: usize> Simulation<D> {
         }
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), density.as_deref());
         let previous = &self.particles.pressure;
-        if std::env::var("MPS_CSF").is_err() {
-            sys.surface_jump = self.surface_jump(pred, surf).unwrap_or_default();
-        }
+        sys.surface_jump = self.surface_jump(pred, surf).unwrap_or_default();
         assemble_into(
             &v,
             previous,
@@ -339,16 +331,7 @@ impl<const D: usize> Simulation<D> {
             s0: self.kernels.lap.s0_smooth,
             surface: &surf.free_surface,
         };
-        let j = laplace_jump(&inp, &self.interfaces.free_surface);
-        if std::env::var("MPS_DBG").is_ok() {
-            if let Some(j) = &j {
-                let on: Vec<f64> = (0..j.len()).filter(|&i| surf.free_surface[i]).map(|i| j[i]).collect();
-                let mean = on.iter().sum::<f64>() / on.len().max(1) as f64;
-                let (lo, hi) = on.iter().fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
-                eprintln!("jump: {} flagged, mean {mean:.3} range {lo:.3} {hi:.3}", on.len());
-            }
-        }
-        j
+        laplace_jump(&inp, &self.interfaces.free_surface)
     }
 
     /// A distributed closed domain's reference particle: over every process's own fluid
