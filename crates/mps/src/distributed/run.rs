@@ -55,14 +55,14 @@ impl Processes {
         sim: &Simulation<D>,
         label: &str,
     ) -> Result<(), CaseError> {
-        if let Some((k, p)) =
-            (sim.case.phases.iter().enumerate()).find(|(_, p)| p.surface_tension > 0.0)
-        {
+        let several = self.size() > 1;
+        let mut phases = sim.case.phases.iter().enumerate();
+        if let Some((k, p)) = phases.find(|(_, p)| several && p.surface_tension > 0.0) {
             return Err(CaseError::new(
                 label,
                 format!("phases.{k}.surface_tension"),
                 p.surface_tension.to_string(),
-                "a free surface under tension runs on one process only",
+                "a free surface under tension runs on one process only (its curvature reaches beyond the halo)",
             ));
         }
         let least = (2.0 * halo_depth(sim) / sim.l0()).powi(D as i32).ceil() as usize;
