@@ -891,3 +891,58 @@ fn a_free_drop_under_surface_tension_has_the_laplace_jump() {
         assert!(late < 1e-3, "spurious currents {late} m/s");
     }
 }
+
+/// A free drop's capillary oscillation (Rayleigh 1879; a 2D column's mode n oscillates at
+/// `omega^2 = n (n^2 - 1) sigma / (rho R^3)`, `6 sigma / (rho R^3)` for n = 2): `free_drop`
+/// (R = 0.05 m = 20 l0, sigma = 1 N/m, so T = 0.9069 s) with nu = 1e-4 and the mode's
+/// potential flow `u = eps (x, -y)` at the start. Its elongation `sqrt(<x^2>) - sqrt(<y^2>)`
+/// changes sign at T/2 and T: both within 5 % of the inviscid period.
+#[test]
+#[ignore = "validation run (release mode): cargo test --release -- --ignored"]
+fn a_free_drop_oscillates_at_rayleighs_frequency() {
+    let flow = "{ type = \"expression\", u = \"0.35 * x\", v = \"-0.35 * y\" }";
+    let set = [
+        ("output.vtu", "false"),
+        ("phases.0.viscosity", "1.0e-4"),
+        ("fluid.0.velocity", flow),
+    ];
+    let mut s = sim("free_drop", &set);
+    s.refresh_diagnostic_fields();
+    let elongation = |s: &mps::Simulation<2>| {
+        let p = &s.particles;
+        let fluid: Vec<usize> = (0..p.len()).filter(|&i| p.kind[i] == Kind::Fluid).collect();
+        let n = fluid.len() as f64;
+        let (cx, cy) = fluid.iter().fold((0.0, 0.0), |(a, b), &i| {
+            (a + p.position[i][0] / n, b + p.position[i][1] / n)
+        });
+        let (xx, yy) = fluid.iter().fold((0.0, 0.0), |(a, b), &i| {
+            let (dx, dy) = (p.position[i][0] - cx, p.position[i][1] - cy);
+            (a + dx * dx / n, b + dy * dy / n)
+        });
+        xx.sqrt() - yy.sqrt()
+    };
+    let period = 2.0 * std::f64::consts::PI / (6.0f64 / (1000.0 * 0.05f64.powi(3))).sqrt();
+    let (end, mut crossings) = (1.1 * period, Vec::new());
+    let (mut t0, mut e0) = (0.0, elongation(&s));
+    while s.time < end && crossings.len() < 2 {
+        s.step(end).expect("no breakdown");
+        let e = elongation(&s);
+        // The drop starts round and stretches along x first: e > 0 until T/2.
+        if (e < 0.0) != (e0 < 0.0) && s.time > 0.1 * period {
+            crossings.push(t0 + (s.time - t0) * e0 / (e0 - e));
+        }
+        (t0, e0) = (s.time, e);
+    }
+    eprintln!(
+        "free drop mode 2: sign changes at {crossings:?} s against T/2, T = {:.4}, {period:.4} s",
+        period / 2.0
+    );
+    assert_eq!(crossings.len(), 2, "sign changes {crossings:?}");
+    for (k, t) in crossings.iter().enumerate() {
+        let exact = 0.5 * (k + 1) as f64 * period;
+        assert!(
+            (t / exact - 1.0).abs() < 0.05,
+            "crossing {t} s against {exact} s"
+        );
+    }
+}
