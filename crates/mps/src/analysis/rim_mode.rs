@@ -128,14 +128,24 @@ impl<const D: usize> RimMode<D> {
     }
 }
 
-/// Linear theory: `|eta_n(t)| = (U / gamma) sinh(gamma t)` (m), `gamma = Omega sqrt(n - 1)`,
-/// for an undisplaced surface whose radial velocity has amplitude `U` (m/s) in mode `n`.
-pub fn linear_amplitude(u: f64, omega: f64, mode: u32, t: f64) -> f64 {
-    let gamma = omega.abs() * (mode as f64 - 1.0).max(0.0).sqrt();
-    if gamma == 0.0 {
-        return u * t;
+/// Linear theory: `|eta_n(t)| = (U / gamma) sinh(gamma t)` (m) for an undisplaced surface
+/// whose radial velocity has amplitude `U` (m/s) in mode `n`, with
+/// `gamma^2 = (n - 1) (Omega^2 - T n (n + 1))` and `T = sigma / (rho R^3)` (1/s^2) the
+/// surface tension's share (0 without): the Young-Laplace jump `sigma (n^2 - 1) eta / R^2`
+/// added to the relation above turns it into `s^2 + 2 Omega s + n Omega^2 - T n (n^2 - 1) =
+/// 0`. Where `gamma^2 < 0` the mode oscillates: `(U / w) |sin(w t)|`, `w^2 = -gamma^2`.
+pub fn linear_amplitude(u: f64, (omega, tension): (f64, f64), mode: u32, t: f64) -> f64 {
+    let n = f64::from(mode);
+    let g2 = (n - 1.0).max(0.0) * (omega * omega - tension * n * (n + 1.0));
+    if g2 > 0.0 {
+        let gamma = g2.sqrt();
+        u / gamma * (gamma * t).sinh()
+    } else if g2 < 0.0 {
+        let w = (-g2).sqrt();
+        u / w * (w * t).sin().abs()
+    } else {
+        u * t
     }
-    u / gamma * (gamma * t).sinh()
 }
 
 #[cfg(test)]
@@ -185,13 +195,22 @@ mod tests {
         assert!(other.initial_velocity < 0.05 * u);
     }
 
-    /// `sinh` growth at `Omega sqrt(n - 1)`; the neutral mode 1 moves at `U t`.
+    /// `sinh` growth at `Omega sqrt(n - 1)`, slower under tension; the neutral mode 1 moves
+    /// at `U t`.
     #[test]
     fn linear_growth() {
-        let a = linear_amplitude(0.01, 1.0, 6, 1.0);
+        let a = linear_amplitude(0.01, (1.0, 0.0), 6, 1.0);
         let g = 5f64.sqrt();
         assert!((a - 0.01 / g * g.sinh()).abs() < 1e-15);
-        assert!((linear_amplitude(0.01, -2.0, 2, 0.5) - 0.005 * 1f64.sinh()).abs() < 1e-15);
-        assert_eq!(linear_amplitude(0.01, 1.0, 1, 2.0), 0.02);
+        assert!((linear_amplitude(0.01, (-2.0, 0.0), 2, 0.5) - 0.005 * 1f64.sinh()).abs() < 1e-15);
+        assert_eq!(linear_amplitude(0.01, (1.0, 0.0), 1, 2.0), 0.02);
+        // Tension at T n (n + 1) = Omega^2 / 2 halves gamma^2; at Omega = 0 the mode is a
+        // capillary wave, w^2 = T n (n^2 - 1) (Rayleigh).
+        let t = 0.5 / 42.0;
+        let g = 2.5f64.sqrt();
+        assert!((linear_amplitude(0.01, (1.0, t), 6, 1.0) - 0.01 / g * g.sinh()).abs() < 1e-15);
+        let w = (t * 6.0 * 35.0f64).sqrt();
+        let a = linear_amplitude(0.01, (0.0, t), 6, 1.0);
+        assert!((a - 0.01 / w * w.sin().abs()).abs() < 1e-15);
     }
 }

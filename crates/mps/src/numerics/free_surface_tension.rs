@@ -36,6 +36,12 @@ const NORMAL_THRESHOLD: f64 = 0.05;
 /// tension").
 const SMOOTHING_PASSES: usize = 3;
 
+/// The largest curvature read, times `l0`: a single particle's disc of diameter `l0` (a
+/// near-degenerate fit at a filament's tip read curvatures without bound and broke the
+/// square patch at 200 x 200 under water's tension; docs/decisions.md, "Free-surface
+/// tension").
+const MAX_CURVATURE: f64 = 2.0;
+
 /// The colour gradient (1/m) of particle `i` against the void.
 fn void_gradient<const D: usize>(inp: &TensionInput<D>, i: usize) -> Vector<D> {
     let mut g = Vector::zero();
@@ -99,11 +105,13 @@ fn curvature<const D: usize>(inp: &TensionInput<D>, free: &[f64]) -> Vec<f64> {
         })
         .collect();
     let normal = |i: usize| normals[i];
-    let kappa: Vec<f64> = (0..n)
+    // No surface the particles resolve is more curved than one particle's own disc.
+    let most = MAX_CURVATURE / inp.l0;
+    let mut kappa: Vec<f64> = (0..n)
         .into_par_iter()
         .map(|i| normal(i).map_or(0.0, |m| -surface_divergence(inp, i, m, &normal)))
+        .map(|k| k.clamp(-most, most))
         .collect();
-    let mut kappa = kappa;
     for _ in 0..SMOOTHING_PASSES {
         kappa = (0..n)
             .into_par_iter()

@@ -493,10 +493,15 @@ fn validate<const D: usize>(
             mode,
             until,
             tolerance,
+            radius,
             ..
         }) => {
             let u = rec.rim.as_ref().map_or(0.0, |r| r.initial_velocity);
-            surface_mode(&rec.rim_series, u, (*omega, *mode), *until, *tolerance)
+            // The disc's phase: its tension's share sigma / (rho R^3) of the growth.
+            let p = &case.phases[0];
+            let tension = p.surface_tension / (p.density * radius.powi(3));
+            let spec = (*omega, tension, *mode);
+            surface_mode(&rec.rim_series, u, spec, *until, *tolerance)
         }
         Some(v @ ValidationSpec::Laplace { .. }) => laplace(case, rec, v, D),
         Some(ValidationSpec::SteadyFlow { tolerance }) => {

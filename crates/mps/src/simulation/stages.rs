@@ -319,6 +319,14 @@ impl<const D: usize> Simulation<D> {
     /// The Young-Laplace jump (Pa) of every free-surface particle at `r*` under its phase's
     /// free-surface tension (`None` where no phase has one).
     fn surface_jump(&self, pred: &Predicted<D>, surf: &DensitySurface) -> Option<Vec<f64>> {
+        if self
+            .interfaces
+            .free_surface
+            .iter()
+            .all(|&sigma| sigma == 0.0)
+        {
+            return None;
+        }
         let p = &self.particles;
         let fluid: Vec<bool> = p.kind.iter().map(|k| *k == Kind::Fluid).collect();
         let inp = TensionInput {
