@@ -7,9 +7,12 @@
 //! `sigma^2 + 2 Omega sigma + n Omega^2 = 0`, so every mode `n >= 2` grows at
 //! `gamma = Omega sqrt(n - 1)` (the surface-tension-free limit of Hocking & Michael 1959;
 //! Dubey, Roy & Subramanian 2021, JFM, "Linear stability of a rotating liquid column
-//! revisited": stable only for `rho Omega^2 R^3 / gamma_s < n^2 - 1`). From an undisplaced
-//! surface with radial velocity amplitude `U` in mode `n`, `|eta_n(t)| = (U / gamma)
-//! sinh(gamma t)`: the growing and the decaying root share the rotation `-Omega`.
+//! revisited": with viscosity stable only for `rho Omega^2 R^3 / gamma_s < n^2 - 1`). With a
+//! surface tension the Young-Laplace jump adds `- T n (n^2 - 1)`, `T = gamma_s / (rho R^3)`,
+//! and the inviscid planar mode grows at `sqrt((n - 1) (Omega^2 - T n (n + 1)))` (stable for
+//! `rho Omega^2 R^3 / gamma_s < n (n + 1)`, derived here; [`linear_amplitude`]). From an
+//! undisplaced surface with radial velocity amplitude `U` in mode `n`, `|eta_n(t)| = (U /
+//! gamma) sinh(gamma t)`: the growing and the decaying root share the rotation `-Omega`.
 
 use crate::particles::{Kind, Particles, Vector};
 use std::collections::HashMap;
