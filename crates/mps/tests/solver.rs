@@ -598,3 +598,20 @@ fn a_closed_tank_full_of_fluid_has_no_free_surface() {
         );
     }
 }
+
+/// A surface tension so strong that its capillary limit asks more steps than any run takes
+/// is refused with the field named, not run at 1e-154 s a step.
+#[test]
+fn an_endless_capillary_limit_is_refused() {
+    for (name, key) in [
+        ("free_drop", "phases.0.surface_tension"),
+        ("laplace_drop", "interfaces.0.tension"),
+    ] {
+        let case = example(name, &[(key, "1e300")]);
+        let e = match mps::Simulation::<2>::new(case, name) {
+            Err(e) => e,
+            Ok(_) => panic!("{name}: accepted"),
+        };
+        assert_eq!(e.field, "time.end", "{e}");
+    }
+}

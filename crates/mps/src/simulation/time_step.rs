@@ -8,6 +8,9 @@ use crate::input::Case;
 use crate::particles::{Kind, Particles};
 use rayon::prelude::*;
 
+/// The most steps a run's capillary limit may ask for.
+const MAX_STEPS: f64 = 1e9;
+
 /// The largest time step of a case (s): `time.dt_fixed`, `time.dt_max`, or
 /// `C sqrt(l0/g)` with gravity, `C l0/u0` with only an initial velocity `u0`, else the
 /// capillary limit of its surfaces under tension; unless fixed, at most that limit.
@@ -21,6 +24,17 @@ pub fn largest_time_step<const D: usize>(
     let c = case.time.courant;
     let u0 = initial_speed(p);
     let cap = capillary_time_step(case);
+    // A run that cannot end: a tension so strong that its capillary limit asks more steps
+    // than any run takes (a surface tension of 1e300 N/m ran at 1e-154 s a step).
+    let steps = case.time.end / cap;
+    if case.time.dt_fixed.is_none() && steps > MAX_STEPS {
+        return Err(CaseError::new(
+            label,
+            "time.end",
+            case.time.end.to_string(),
+            format!("the capillary limit of the case's surface tension allows steps of {cap:.3e} s: {steps:.1e} steps, more than {MAX_STEPS:.0e}"),
+        ));
+    }
     match (case.time.dt_fixed, case.time.dt_max) {
         (Some(f), _) => Ok(f),
         (None, Some(m)) => Ok(m.min(cap)),
