@@ -153,18 +153,37 @@ impl<const D: usize> Simulation<D> {
             return None;
         }
         let p = &self.particles;
-        let fluid: Vec<bool> = p.kind.iter().map(|k| *k == Kind::Fluid).collect();
-        let inp = TensionInput {
-            pos: &p.position,
+        let fluid = self.fluid_mask();
+        let inp = self.tension_input(&p.position, &p.free_surface, &fluid);
+        Some(surface_force(&inp, &self.interfaces))
+    }
+
+    /// Which particles are fluid, for the tension models.
+    fn fluid_mask(&self) -> Vec<bool> {
+        self.particles
+            .kind
+            .iter()
+            .map(|k| *k == Kind::Fluid)
+            .collect()
+    }
+
+    /// The tension models' inputs at positions `pos` with free-surface flags `surface`.
+    fn tension_input<'a>(
+        &'a self,
+        pos: &'a [Vector<D>],
+        surface: &'a [bool],
+        fluid: &'a [bool],
+    ) -> TensionInput<'a, D> {
+        TensionInput {
+            pos,
             nl: &self.neighbors,
             re: self.kernels.lap.re,
             l0: self.kernels.l0,
-            phase: &p.phase,
-            fluid: &fluid,
+            phase: &self.particles.phase,
+            fluid,
             s0: self.kernels.lap.s0_smooth,
-            surface: &p.free_surface,
-        };
-        Some(surface_force(&inp, &self.interfaces))
+            surface,
+        }
     }
 
     /// Rebuilds the neighbour lists at `r*` when a particle lies more than half the skin from
@@ -327,18 +346,8 @@ impl<const D: usize> Simulation<D> {
         {
             return None;
         }
-        let p = &self.particles;
-        let fluid: Vec<bool> = p.kind.iter().map(|k| *k == Kind::Fluid).collect();
-        let inp = TensionInput {
-            pos: &pred.pos,
-            nl: &self.neighbors,
-            re: self.kernels.lap.re,
-            l0: self.kernels.l0,
-            phase: &p.phase,
-            fluid: &fluid,
-            s0: self.kernels.lap.s0_smooth,
-            surface: &surf.free_surface,
-        };
+        let fluid = self.fluid_mask();
+        let inp = self.tension_input(&pred.pos, &surf.free_surface, &fluid);
         laplace_jump(&inp, &self.interfaces.free_surface)
     }
 
