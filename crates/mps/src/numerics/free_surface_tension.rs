@@ -16,10 +16,13 @@
 //!   a lattice shaken by 0.1 l0, so the band is bounded by the detector's flags);
 //! - the curvature `kappa_i = -div_s m`, the surface divergence of the normals over the
 //!   neighbours in the band, by least squares in the plane tangent to `m_i` (so one or two
-//!   layers of normals give it), then averaged over the band with weights `w_ij`, three
-//!   times (the particle-scale roughness it reads otherwise feeds back through the pressure).
+//!   layers of normals give it), then averaged along the surface (over the free-surface
+//!   particles within `re_grad`) with weights `w_ij`, twice: the particle-scale roughness
+//!   it reads otherwise feeds back through the pressure; averaged over the band's inner
+//!   layers it reads their larger curvature, and averaged wider the tension no longer holds
+//!   the bumps of a few spacings that it must (docs/decisions.md, "Free-surface tension").
 //!
-//! All pair sums run at the Laplacian's radius. Checked against the Laplace jump of a free
+//! The other pair sums run at the Laplacian's radius. Checked against the Laplace jump of a free
 //! drop (`sigma / R` in 2D; `cases/free_drop.toml`).
 
 use super::interfacial_tension::TensionInput;
@@ -31,10 +34,11 @@ use rayon::prelude::*;
 /// Colour gradients below this size times `1/l0` give no normal.
 const NORMAL_THRESHOLD: f64 = 0.05;
 
-/// Passes of the weighted average that smooths the curvature over the band (one pass let a
-/// free drop's surface roughen and break up after 0.3 s; docs/decisions.md, "Free-surface
-/// tension").
-const SMOOTHING_PASSES: usize = 3;
+/// Passes of the weighted average along the surface within `re_grad` that smooths the
+/// curvature (one pass let a free drop's surface roughen and break up; three over the
+/// band at the Laplacian's radius let the square patch's corners and bumps shed particles
+/// at 200 x 200: docs/decisions.md, "Free-surface tension").
+const SMOOTHING_PASSES: usize = 2;
 
 /// The largest curvature read, times `l0`: a single particle's disc of diameter `l0` (a
 /// near-degenerate fit at a filament's tip read curvatures without bound and broke the
@@ -86,9 +90,11 @@ fn surface_divergence<const D: usize>(
     }
 }
 
-/// The curvature (1/m) of the free surface at every particle of the band (0 elsewhere):
-/// `-div_s m`, averaged [`SMOOTHING_PASSES`] times with weights `w_ij` over the particle
-/// and its neighbours in the band; `free[phase]` each phase's tension (N/m, 0 for none).
+/// The curvature (1/m) of the free surface at every free-surface particle with a normal (0
+/// elsewhere): `-div_s m` over the band, then averaged [`SMOOTHING_PASSES`] times with
+/// weights `w_ij` over the particle and its free-surface neighbours within `re_near`, along
+/// the surface (the band's inner layers read the larger curvature of their own radius);
+/// `free[phase]` each phase's tension (N/m, 0 for none).
 fn curvature<const D: usize>(inp: &TensionInput<D>, free: &[f64]) -> Vec<f64> {
     let n = inp.pos.len();
     let tension =
@@ -112,16 +118,17 @@ fn curvature<const D: usize>(inp: &TensionInput<D>, free: &[f64]) -> Vec<f64> {
         .map(|i| normal(i).map_or(0.0, |m| -surface_divergence(inp, i, m, &normal)))
         .map(|k| k.clamp(-most, most))
         .collect();
+    let along = |i: usize| inp.surface[i] && normals[i].is_some();
     for _ in 0..SMOOTHING_PASSES {
         kappa = (0..n)
             .into_par_iter()
             .map(|i| {
-                if normals[i].is_none() {
+                if !along(i) {
                     return 0.0;
                 }
                 let (mut sum, mut weight) = (kappa[i], 1.0);
-                for p in pairs(inp.pos, inp.nl, i, inp.re) {
-                    if normals[p.j].is_some() {
+                for p in pairs(inp.pos, inp.nl, i, inp.re_near) {
+                    if along(p.j) {
                         sum += kappa[p.j] * p.w;
                         weight += p.w;
                     }
@@ -189,6 +196,7 @@ mod tests {
             pos,
             nl: &nl,
             re,
+            re_near: 2.1 * l0,
             l0,
             phase: &phase,
             fluid: &fluid,

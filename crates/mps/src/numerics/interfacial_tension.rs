@@ -47,6 +47,8 @@ pub struct TensionInput<'a, const D: usize> {
     pub nl: &'a NeighborList,
     /// Pair radius (m).
     pub re: f64,
+    /// The gradient's radius `re_grad` (m): the free-surface curvature is averaged over it.
+    pub re_near: f64,
     /// Spacing `l0` (m).
     pub l0: f64,
     /// Phase index per particle.
@@ -210,6 +212,7 @@ mod tests {
             pos,
             nl: &nl,
             re,
+            re_near: 2.1 * l0,
             l0,
             phase,
             fluid: &fluid,

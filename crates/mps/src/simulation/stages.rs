@@ -178,6 +178,7 @@ impl<const D: usize> Simulation<D> {
             pos,
             nl: &self.neighbors,
             re: self.kernels.lap.re,
+            re_near: self.kernels.grad.re,
             l0: self.kernels.l0,
             phase: &self.particles.phase,
             fluid,
