@@ -49,7 +49,7 @@ impl Processes {
 
     /// Refuses a case whose pieces would be narrower than their halo is deep: each process
     /// must own at least `(2 depth / l0)^D` particles on average; and a free surface under
-    /// tension, whose smoothed curvature reaches four Laplacian radii, beyond the halo.
+    /// tension, whose smoothed curvature reaches about 10 l0, beyond the halo.
     pub fn check_size<const D: usize>(
         &self,
         sim: &Simulation<D>,
