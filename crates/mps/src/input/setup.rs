@@ -32,8 +32,8 @@ fn site_range<const D: usize>(min: &[f64], max: &[f64], l0: f64) -> ([i64; D], [
     let mut hi = [0i64; D];
     for k in 0..D {
         // Saturating float-to-int casts keep far-away shapes finite; the clip does the rest.
-        lo[k] = (min[k] / l0 - 0.5).floor() as i64 - 1;
-        hi[k] = (max[k] / l0 - 0.5).ceil() as i64 + 1;
+        lo[k] = ((min[k] / l0 - 0.5).floor() as i64).saturating_sub(1);
+        hi[k] = ((max[k] / l0 - 0.5).ceil() as i64).saturating_add(1);
     }
     (lo, hi)
 }
@@ -461,6 +461,26 @@ pub fn group_names(case: &Case) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A tank reaching far beyond the domain (min -1e308 m) keeps the walls that lie in it:
+    /// its lattice range saturates instead of wrapping round, which left it without a single
+    /// wall particle (../shared/reliability/repro/timeout_wall_-1e308.toml).
+    #[test]
+    fn a_tank_reaching_far_beyond_the_domain_keeps_its_walls_inside() {
+        let (lo, hi) = site_range::<2>(&[-1e308, 0.0], &[1.0, 0.6], 0.04);
+        assert_eq!(lo[0], i64::MIN);
+        assert!(hi[0] > lo[0] && hi[1] > lo[1]);
+        let tank = ShapeSpec::Tank {
+            min: vec![-1e308, 0.0],
+            max: vec![1.0, 0.6],
+            open_top: true,
+        };
+        let clip = ([-5, -5], [30, 20]);
+        let sites = sites_of::<2>(&tank, 0.04, 0.12, &clip);
+        // The bottom (three layers under y = 0, across the clip) and the right wall.
+        assert!(sites.iter().any(|s| s[1] < 0 && s[0] == 0));
+        assert!(sites.iter().any(|s| s[0] >= 25 && s[1] == 10));
+    }
 
     /// The offsets the layer depths and backing walls are searched in: shortest first, equal
     /// lengths in the lattice enumeration's order, so the first wall found is the nearest
