@@ -22,8 +22,8 @@
 //!   layers it reads their larger curvature, and averaged wider the tension no longer holds
 //!   the bumps of a few spacings that it must (docs/decisions.md, "Free-surface tension").
 //!
-//! The other pair sums run at the Laplacian's radius. Checked against the Laplace jump of a free
-//! drop (`sigma / R` in 2D; `cases/free_drop.toml`).
+//! The other pair sums run at the Laplacian's radius. Checked against the Laplace jump of a
+//! free drop (`sigma / R` in 2D; `cases/free_drop.toml`).
 
 use super::interfacial_tension::TensionInput;
 use super::kernel::smooth_slope;
