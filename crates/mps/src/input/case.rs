@@ -1143,6 +1143,20 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         assert_eq!(e.value, "-0.01");
     }
 
+    /// A spacing beyond the domain's shortest side is refused: its wall layers (1e308 m
+    /// each) once overflowed to an unbounded lattice box and the set-up never ended.
+    #[test]
+    fn a_spacing_beyond_the_domain_is_named() {
+        let e = Case::from_str_named(
+            MINIMAL,
+            "t.toml",
+            &[("particles.spacing".into(), "1e308".into())],
+        )
+        .unwrap_err();
+        assert_eq!(e.field, "particles.spacing", "{e}");
+        assert!(e.to_string().contains("shortest side"), "{e}");
+    }
+
     /// The PPE's volume tolerance is a dimensionless fraction in [0, 1): 0 is off, a negative
     /// or NaN value is named with the field and its value.
     #[test]

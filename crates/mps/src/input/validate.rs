@@ -348,6 +348,13 @@ impl Case {
             )?;
         }
         let (max, min) = (&self.domain.max, &self.domain.min);
+        // A spacing beyond the domain's shortest side holds no particle, and its wall layers
+        // would reach past every float (a spacing of 1e308 m).
+        let shortest = (0..c.d)
+            .map(|k| max[k] - min[k])
+            .fold(f64::INFINITY, f64::min);
+        let msg = format!("exceeds the domain's shortest side ({shortest} m)");
+        c.require(l0 <= shortest, "particles.spacing", l0, &msg)?;
         let sites: f64 = max.iter().zip(min).map(|(a, b)| (a - b) / l0).product();
         let msg = "too fine for the domain (more than 5e8 lattice sites)";
         c.require(sites <= MAX_LATTICE_SITES, "particles.spacing", l0, msg)?;
