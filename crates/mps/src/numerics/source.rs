@@ -112,7 +112,13 @@ pub fn source<const D: usize>(i: usize, v: &View<D>, k: &Kernels, s: &PpeSource,
     match s.model {
         SourceModel::Pnd => s.pnd_relaxation * pnd,
         SourceModel::Hs => {
-            let sum = hs_sum(i, v, k.grad.re);
+            // The kernel sum, where the normalization or ECS reads it (not under Smooth).
+            let smooth = s.hs_normalization == HsNormalization::Smooth;
+            let sum = if smooth && s.drift != DriftControl::Ecs {
+                0.0
+            } else {
+                hs_sum(i, v, k.grad.re)
+            };
             let hs = match s.hs_normalization {
                 HsNormalization::Consistent => -(D as f64 / k.grad.h0) / dt * sum,
                 HsNormalization::N0 => -(1.0 / n0) / dt * sum,
