@@ -113,6 +113,11 @@ def mutate(text, rng):
     return text
 
 
+# Lines `mps run` prints on stderr while it sets up: the settled start's announcement and
+# the heartbeat (`[5 s] still: ...`).
+PROGRESS = re.compile(r"^(\S.*: relaxing the tank at rest for up to .* first \(.*\)|\[\d+ s\] still: .*)$")
+
+
 def run_one(binary, work, k, name, text, timeout):
     case = os.path.join(work, f"case_{k}.toml")
     with open(case, "w", encoding="utf-8", errors="surrogatepass") as f:
@@ -141,7 +146,10 @@ def run_one(binary, work, k, name, text, timeout):
     elif p.returncode < 0 or p.returncode > 3:
         verdict = f"signal/exit {p.returncode}"
     elif p.returncode == 1:
-        lines = [l for l in err.strip().split("\n") if l.strip()]
+        # Progress before the error (the settled start's announcement, the heartbeat) is
+        # not part of the message.
+        lines = [l for l in err.strip().split("\n")
+                 if l.strip() and not PROGRESS.match(l)]
         if len(lines) != 1:
             verdict = "exit-1 message not one line"
         elif os.path.basename(case) not in lines[0]:
