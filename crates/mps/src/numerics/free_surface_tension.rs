@@ -24,6 +24,16 @@
 //!
 //! The other pair sums run at the Laplacian's radius. Checked against the Laplace jump of a
 //! free drop (`sigma / R` in 2D; `cases/free_drop.toml`).
+//!
+//! That curvature is read over about six spacings, so the jump holds no feature narrower
+//! than that: a particle one spacing proud of the surface (the end of a surface row, a
+//! filament's tip) reads almost none, and on a rotating or accelerating body such bumps grow
+//! as Rayleigh-Taylor fingers do, fastest at the finest resolution. The particle-scale part
+//! of the tension acts as a force instead ([`particle_scale_tension`]): the surface pulled
+//! as a string (a membrane in 3D) of tension `sigma` between neighbouring free-surface
+//! particles, less its own average along the surface (the part the jump already carries),
+//! along the surface's normal only. Without it the square patch under water's tension sheds
+//! particles at 200 x 200 (docs/decisions.md, "Free-surface tension").
 
 use super::interfacial_tension::TensionInput;
 use super::kernel::smooth_slope;
@@ -39,6 +49,10 @@ const NORMAL_THRESHOLD: f64 = 0.05;
 /// band at the Laplacian's radius let the square patch's corners and bumps shed particles
 /// at 200 x 200: docs/decisions.md, "Free-surface tension").
 const SMOOTHING_PASSES: usize = 2;
+
+/// Free-surface neighbours within this many spacings are a particle's neighbours along the
+/// surface for the particle-scale tension (the lattice's nearest and diagonal ones).
+const STRING_RADIUS: f64 = 1.5;
 
 /// The largest curvature read, times `l0`: a single particle's disc of diameter `l0` (a
 /// near-degenerate fit at a filament's tip read curvatures without bound and broke the
@@ -162,6 +176,94 @@ pub fn laplace_jump<const D: usize>(inp: &TensionInput<D>, free: &[f64]) -> Opti
     )
 }
 
+/// The particle-scale part of the free surface's tension (m/s^2) at every free-surface
+/// particle whose phase's free surface has tension `free[phase]` (N/m), zero elsewhere;
+/// `density` each particle's density (kg/m^3). `None` where no phase has a tension.
+///
+/// The surface as a string (a membrane in 3D) of tension `sigma` between each free-surface
+/// particle and its `N_i` free-surface neighbours of its phase within [`STRING_RADIUS`]
+/// spacings: `s_i = sum_j c_ij e_ij`, `c_ij = 2 (d - 1) sigma / (rho_i l0^2) * 2 / (N_i +
+/// N_j)`. Since `sum_j e_ij = -(N l0 / (2 (d - 1))) kappa m` on a surface sampled evenly at
+/// `l0`, this is the tension's force `-sigma kappa m / (rho l0)` per particle on a smooth
+/// surface. Less its average along the surface, which the Young-Laplace jump already
+/// carries: `sum_j (w_ij / W_j) s_j` over the particle (`w_ii = 1`) and its free-surface
+/// neighbours within `re_near`, `W_j = 1 + sum_k w_jk` (each particle spreads its pull over
+/// its neighbourhood). What is left acts where the surface bends within a spacing or two,
+/// and only its part along the normal `m_i` is kept: along the surface it is the pull of
+/// unevenly spaced neighbours, as large as the normal part and with no restoring role, and
+/// it fed a free drop's capillary mode (docs/decisions.md, "Free-surface tension").
+pub fn particle_scale_tension<const D: usize>(
+    inp: &TensionInput<D>,
+    free: &[f64],
+    density: &[f64],
+) -> Option<Vec<Vector<D>>> {
+    if free.iter().all(|&sigma| sigma == 0.0) {
+        return None;
+    }
+    let n = inp.pos.len();
+    let sigma = |i: usize| free.get(inp.phase[i] as usize).copied().unwrap_or(0.0);
+    let along = |i: usize| inp.surface[i] && inp.fluid[i] && sigma(i) > 0.0;
+    let reach = STRING_RADIUS * inp.l0;
+    let neighbours = move |i: usize| {
+        pairs(inp.pos, inp.nl, i, reach)
+            .filter(move |p| along(p.j) && inp.phase[p.j] == inp.phase[i])
+    };
+    let count: Vec<f64> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if along(i) {
+                neighbours(i).count() as f64
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let scale = 4.0 * (D as f64 - 1.0) / (inp.l0 * inp.l0);
+    let string: Vec<Vector<D>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let mut s = Vector::zero();
+            if along(i) {
+                let c = scale * sigma(i) / density[i];
+                for p in neighbours(i) {
+                    s += p.xij * (c / (p.r * (count[i] + count[p.j])));
+                }
+            }
+            s
+        })
+        .collect();
+    let weight: Vec<f64> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let near = pairs(inp.pos, inp.nl, i, inp.re_near).filter(|p| along(p.j));
+            1.0 + near.map(|p| p.w).sum::<f64>()
+        })
+        .collect();
+    Some(
+        (0..n)
+            .into_par_iter()
+            .map(|i| {
+                if !along(i) {
+                    return Vector::zero();
+                }
+                let mut mean = string[i] * (1.0 / weight[i]);
+                for p in pairs(inp.pos, inp.nl, i, inp.re_near) {
+                    if along(p.j) {
+                        mean += string[p.j] * (p.w / weight[p.j]);
+                    }
+                }
+                let g = void_gradient(inp, i);
+                let m2 = g.dot(&g);
+                if m2 > 0.0 {
+                    g * (g.dot(&(string[i] - mean)) / m2)
+                } else {
+                    Vector::zero()
+                }
+            })
+            .collect(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -187,7 +289,13 @@ mod tests {
         (pos, surface)
     }
 
-    fn jumps(pos: &[Vector<2>], surface: &[bool], l0: f64, sigma: f64) -> Vec<f64> {
+    /// The tension model's input for one phase of fluid particles at `pos`.
+    fn with_input<T>(
+        pos: &[Vector<2>],
+        surface: &[bool],
+        l0: f64,
+        f: impl FnOnce(&TensionInput<2>) -> T,
+    ) -> T {
         let re = 3.1 * l0;
         let nl = build_neighbor_list(pos, re);
         let fluid = vec![true; pos.len()];
@@ -203,7 +311,105 @@ mod tests {
             s0: KernelConstants::on_lattice::<2>(re, l0).s0_smooth,
             surface,
         };
-        laplace_jump(&inp, &[sigma]).unwrap()
+        f(&inp)
+    }
+
+    fn jumps(pos: &[Vector<2>], surface: &[bool], l0: f64, sigma: f64) -> Vec<f64> {
+        with_input(pos, surface, l0, |inp| laplace_jump(inp, &[sigma]).unwrap())
+    }
+
+    fn string_accelerations(
+        pos: &[Vector<2>],
+        surface: &[bool],
+        l0: f64,
+        sigma: f64,
+    ) -> Vec<Vector<2>> {
+        let density = vec![1000.0; pos.len()];
+        with_input(pos, surface, l0, |inp| {
+            particle_scale_tension(inp, &[sigma], &density).unwrap()
+        })
+    }
+
+    /// On a disc's smooth surface the string's pull, `sigma / (rho l0 R)` inward at every
+    /// surface particle (the jump's share), is taken out whole: what is left is below 2 % of
+    /// it (without the average taken out it is all of it), and nothing acts inside.
+    #[test]
+    fn a_smooth_surface_takes_no_particle_scale_tension() {
+        let (l0, r, sigma) = (1e-3, 0.025, 0.1);
+        let (pos, surface) = disc(l0, r);
+        let a = string_accelerations(&pos, &surface, l0, sigma);
+        let pull = sigma / (1000.0 * l0 * r);
+        let worst = a.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        assert!(worst < 0.02 * pull, "largest {worst} m/s^2 against {pull}");
+        assert!(a.iter().zip(&surface).all(|(v, s)| *s || v.norm() == 0.0));
+    }
+
+    /// Flagged rows `b = 0` of a lattice block `a` in -15..=15, `b` in -8..=0 (spacing `l0`),
+    /// the row's particle at `a = 0` moved by `shift`.
+    fn row_with(l0: f64, shift: [f64; 2]) -> (Vec<Vector<2>>, Vec<bool>, usize) {
+        let mut pos = Vec::new();
+        for a in -15..=15 {
+            for b in -8..=0 {
+                pos.push(Vector([a as f64 * l0, b as f64 * l0]));
+            }
+        }
+        let moved = pos.iter().position(|x| x[0] == 0.0 && x[1] == 0.0).unwrap();
+        pos[moved] += Vector(shift) * l0;
+        let surface: Vec<bool> = pos.iter().map(|x| x[1] > -0.5 * l0).collect();
+        (pos, surface, moved)
+    }
+
+    /// A flat surface row with one particle standing 0.6 l0 proud of it (a row's end, a
+    /// tip's leading particle): the string pulls it back toward the row at more than a third
+    /// of `sigma / (rho l0^2)`, straight down; its neighbours along the row take the
+    /// reaction, so the pulls near it sum to less than a tenth of its own.
+    #[test]
+    fn a_particle_proud_of_the_surface_is_pulled_back() {
+        let (l0, sigma) = (1e-3, 0.072);
+        let (pos, surface, proud) = row_with(l0, [0.0, 0.6]);
+        let a = string_accelerations(&pos, &surface, l0, sigma);
+        let scale = sigma / (1000.0 * l0 * l0);
+        assert!(a[proud][1] < -scale / 3.0, "{:?} against {scale}", a[proud]);
+        assert!(a[proud][0].abs() < 1e-9 * scale, "{:?}", a[proud]);
+        let total = near_the_middle(&pos, &a).fold(Vector::zero(), |s, v| s + v);
+        assert!(
+            total.norm() < 0.1 * a[proud].norm(),
+            "sum {total:?} against {:?}",
+            a[proud]
+        );
+    }
+
+    /// A flat surface row with one particle moved 0.6 l0 along it, so that it has two
+    /// neighbours along the row on one side and none on the other: the string pulls it back
+    /// along the row at 1.9 `sigma / (rho l0^2)`; the model leaves that to the pressure and
+    /// keeps only the part along the normal, which the gap tilts, so what acts near it is
+    /// below 0.75 of `sigma / (rho l0^2)` (0.69 measured).
+    #[test]
+    fn a_particle_moved_along_the_surface_is_left_to_the_pressure() {
+        let (l0, sigma) = (1e-3, 0.072);
+        let (pos, surface, _) = row_with(l0, [0.6, 0.0]);
+        let a = string_accelerations(&pos, &surface, l0, sigma);
+        let scale = sigma / (1000.0 * l0 * l0);
+        let worst = near_the_middle(&pos, &a)
+            .map(|v| v.norm())
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 0.75 * scale,
+            "largest {worst} m/s^2 against {scale}"
+        );
+    }
+
+    /// The accelerations `a` of the particles within 8 spacings of the block's middle
+    /// column (its corners, the row's ends, take pulls of their own).
+    fn near_the_middle<'a>(
+        pos: &'a [Vector<2>],
+        a: &'a [Vector<2>],
+    ) -> impl Iterator<Item = Vector<2>> + 'a {
+        let l0 = 1e-3;
+        pos.iter()
+            .zip(a)
+            .filter(move |(x, _)| x[0].abs() < 8.0 * l0)
+            .map(|(_, v)| *v)
     }
 
     /// Every surface particle of a disc on rings takes the Laplace jump of its own ring,

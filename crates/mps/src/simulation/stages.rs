@@ -6,7 +6,7 @@ use super::pressure_solver::{stopping_tolerance, SolveReport};
 use super::{Simulation, Stage, StepReport};
 use crate::numerics::collision::{collide, Collision};
 use crate::numerics::density::smoothed_density;
-use crate::numerics::free_surface_tension::laplace_jump;
+use crate::numerics::free_surface_tension::{laplace_jump, particle_scale_tension};
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::interface_repulsion::interface_repulsion;
 use crate::numerics::interfacial_tension::{surface_force, TensionInput};
@@ -112,12 +112,15 @@ impl<const D: usize> Simulation<D> {
 
     /// Stage 2: `u* = u + dt (nu lap u + g + a_tension + a_repulsion)`, `r* = r + dt u*` for
     /// fluid particles (`a_tension` from `numerics::interfacial_tension` where the case has
-    /// interfaces, `a_repulsion` from `numerics::interface_repulsion` where the scheme has it).
+    /// interfaces and the particle-scale part of `numerics::free_surface_tension` where a
+    /// phase's free surface has tension, `a_repulsion` from `numerics::interface_repulsion`
+    /// where the scheme has it).
     pub(super) fn predict(&self, dt: f64) -> Predicted<D> {
         let p = &self.particles;
         let k = &self.kernels.lap;
         let g = self.gravity;
         let tension = self.surface_tension();
+        let string = self.particle_scale_tension();
         let at_r = self.view_of(&p.position, &p.velocity, None, None);
         let mut pred = Predicted {
             pos: self.spare.take(),
@@ -135,6 +138,9 @@ impl<const D: usize> Simulation<D> {
                     a += laplacian_vector(i, &p.position, &p.velocity, &self.neighbors, k) * nu;
                 }
                 if let Some(t) = &tension {
+                    a += t[i];
+                }
+                if let Some(t) = &string {
                     a += t[i];
                 }
                 if let Some(r) = &self.scheme.interface_repulsion {
@@ -156,6 +162,19 @@ impl<const D: usize> Simulation<D> {
         let fluid = self.fluid_mask();
         let inp = self.tension_input(&p.position, &p.free_surface, &fluid);
         Some(surface_force(&inp, &self.interfaces))
+    }
+
+    /// Stage 2b: the particle-scale part of the free surface's tension at `r` with the last
+    /// step's flags (`None` where no phase's free surface has tension).
+    fn particle_scale_tension(&self) -> Option<Vec<Vector<D>>> {
+        let free = &self.interfaces.free_surface;
+        if free.iter().all(|&sigma| sigma == 0.0) {
+            return None;
+        }
+        let p = &self.particles;
+        let fluid = self.fluid_mask();
+        let inp = self.tension_input(&p.position, &p.free_surface, &fluid);
+        particle_scale_tension(&inp, free, &p.density)
     }
 
     /// Which particles are fluid, for the tension models.
