@@ -615,3 +615,27 @@ fn an_endless_capillary_limit_is_refused() {
         assert_eq!(e.field, "time.end", "{e}");
     }
 }
+
+/// A tension so weak that its capillary limit is seconds, on a drop with no gravity and no
+/// initial velocity (so that limit is the case's largest step): the run takes the viscous
+/// limit, `0.1 l0^2 / nu` = 0.625 ms, every step, which is not a collapse of the step (it was
+/// reported as one at the first step).
+#[test]
+fn a_weak_tension_runs_at_the_viscous_limit() {
+    let case = example(
+        "free_drop",
+        &[
+            ("phases.0.surface_tension", "1e-6"),
+            ("time.end", "0.005"),
+            ("output.vtu", "false"),
+        ],
+    );
+    let mut s = mps::Simulation::<2>::new(case, "free_drop").unwrap();
+    let mut steps = 0;
+    while s.time < 0.005 - 1e-12 {
+        let r = s.step(0.005).expect("no breakdown");
+        assert!((r.dt - 6.25e-4).abs() < 1e-12, "step {}", r.dt);
+        steps += 1;
+    }
+    assert_eq!(steps, 8);
+}

@@ -547,7 +547,8 @@ pub struct BreakdownSpec {
     /// Largest allowed speed (m/s); default 50 x the case velocity scale.
     #[serde(default)]
     pub max_speed: Option<f64>,
-    /// Smallest allowed time step as a fraction of the largest.
+    /// Smallest allowed time step as a fraction of the largest (`dt_max` or the viscous limit,
+    /// whichever is smaller).
     #[serde(default = "default_min_dt_ratio")]
     pub min_dt_ratio: f64,
 }
