@@ -32,9 +32,60 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// True for the name [`write_atomic`] gives its temporary file (`.NAME.tmpPID`).
+pub fn is_temporary(name: &str) -> bool {
+    name.starts_with('.')
+        && name.rfind(".tmp").is_some_and(|k| {
+            let pid = &name[k + 4..];
+            k > 0 && !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit())
+        })
+}
+
+/// Removes the temporaries that writers killed mid-write left in `dir` (a SIGKILL leaves no
+/// chance to clean up); returns how many. For a run resumed in its own folder, before it
+/// writes anything.
+pub fn remove_stale_temporaries(dir: &Path) -> usize {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    entries
+        .flatten()
+        .filter(|e| is_temporary(&e.file_name().to_string_lossy()))
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .filter(|e| std::fs::remove_file(e.path()).is_ok())
+        .count()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A killed writer's temporary is recognised and removed; other files stay, dot-files
+    /// of the user's included.
+    #[test]
+    fn stale_temporaries_are_removed_and_nothing_else() {
+        let dir = std::env::temp_dir().join(format!("mps_stale_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for f in [
+            ".checkpoint.bin.tmp4242",
+            "checkpoint.bin",
+            ".notes.tmp",
+            ".tmp12",
+            "a.tmp7",
+        ] {
+            std::fs::write(dir.join(f), b"x").unwrap();
+        }
+        assert_eq!(remove_stale_temporaries(&dir), 1);
+        let mut left: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().to_string())
+            .collect();
+        left.sort();
+        assert_eq!(left, [".notes.tmp", ".tmp12", "a.tmp7", "checkpoint.bin"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn atomic_write_leaves_no_temporary() {

@@ -11,6 +11,7 @@ use crate::analysis::metrics::{front_position, Metrics};
 use crate::analysis::rim_mode::RimMode;
 use crate::error::{Error, Result};
 use crate::input::case::ValidationSpec;
+use crate::io::atomic::{is_temporary, remove_stale_temporaries};
 use crate::io::checkpoint::{agree, write_checkpoint};
 use crate::io::series::{read_records, Cell, Records, Series};
 use crate::io::vtu::{pvd_bytes, pvtu_bytes, pvtu_pieces, vtu_bytes};
@@ -49,7 +50,7 @@ pub fn is_run_file(name: &str) -> bool {
         || (name.starts_with("particles_") && particles)
         || (name.starts_with("breakdown_last_good_state") && particles)
         || (name.starts_with("checkpoint_") && name.ends_with(".bin"))
-        || (name.starts_with('.') && name.contains(".tmp"))
+        || is_temporary(name)
 }
 
 /// Prepares `dir` for a run: created if missing; a folder holding files refuses unless
@@ -451,6 +452,8 @@ impl<const D: usize> Recorder<D> {
         let earlier = earlier?;
         status?;
         let carried = if sim.is_first_process() {
+            // A run killed while writing left its temporary (every process waits here).
+            remove_stale_temporaries(out);
             carry_snapshots(&earlier, out)
         } else {
             Ok(())
@@ -554,12 +557,11 @@ impl<const D: usize> Recorder<D> {
         Ok(Some(self.out.join(entry)))
     }
 
-    /// An output: checkpoint, snapshot, metrics and group rows; every series flushed.
-    /// Returns the snapshot's path when one was written.
+    /// An output: snapshot, metrics and group rows, every series flushed, then the
+    /// checkpoint (last, so that a run killed at any moment leaves a checkpoint whose rows
+    /// are all on disk: a resumed run keeps the rows up to its checkpoint and drops the
+    /// rest). Returns the snapshot's path when one was written.
     pub fn output(&mut self, sim: &Simulation<D>) -> Result<Option<PathBuf>> {
-        if sim.case.output.checkpoint {
-            write_checkpoint(sim, &self.out.join("checkpoint.bin"))?;
-        }
         let path = self.snapshot(sim, &format!("particles_{:06}.vtu", self.outputs))?;
         self.outputs += 1;
         let m = Metrics::measure(sim);
@@ -605,6 +607,9 @@ impl<const D: usize> Recorder<D> {
             series.push(&row)?;
         }
         self.flush()?;
+        if sim.case.output.checkpoint {
+            write_checkpoint(sim, &self.out.join("checkpoint.bin"))?;
+        }
         Ok(path)
     }
 
