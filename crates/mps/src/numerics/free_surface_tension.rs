@@ -371,7 +371,7 @@ mod tests {
         let scale = sigma / (1000.0 * l0 * l0);
         assert!(a[proud][1] < -scale / 3.0, "{:?} against {scale}", a[proud]);
         assert!(a[proud][0].abs() < 1e-9 * scale, "{:?}", a[proud]);
-        let total = near_the_middle(&pos, &a).fold(Vector::zero(), |s, v| s + v);
+        let total = near_the_middle(&pos, &a, l0).fold(Vector::zero(), |s, v| s + v);
         assert!(
             total.norm() < 0.1 * a[proud].norm(),
             "sum {total:?} against {:?}",
@@ -390,7 +390,7 @@ mod tests {
         let (pos, surface, _) = row_with(l0, [0.6, 0.0]);
         let a = string_accelerations(&pos, &surface, l0, sigma);
         let scale = sigma / (1000.0 * l0 * l0);
-        let worst = near_the_middle(&pos, &a)
+        let worst = near_the_middle(&pos, &a, l0)
             .map(|v| v.norm())
             .fold(0.0, f64::max);
         assert!(
@@ -404,8 +404,8 @@ mod tests {
     fn near_the_middle<'a>(
         pos: &'a [Vector<2>],
         a: &'a [Vector<2>],
+        l0: f64,
     ) -> impl Iterator<Item = Vector<2>> + 'a {
-        let l0 = 1e-3;
         pos.iter()
             .zip(a)
             .filter(move |(x, _)| x[0].abs() < 8.0 * l0)
