@@ -20,10 +20,13 @@
 //! One application is a symmetric V(1,1)-cycle with a Chebyshev polynomial smoother in
 //! `D^-1 A` (parallel, and the same polynomial before and after the coarse correction, so
 //! the cycle is a symmetric positive-definite operator as CG needs). Why smoothed
-//! aggregation, and the parameters: docs/decisions.md, "AMG parameters".
+//! aggregation, and the parameters: docs/decisions.md, "AMG parameters". The hierarchy is
+//! built in `f64` and then stored, with the cycle's vectors, in `f32` (every sum still in
+//! `f64`): the cycle streams about two thirds of the bytes, and CG, in `f64` on the whole
+//! matrix, stops at the same residual (docs/decisions.md, "The V-cycle in single precision").
 
 use super::pcg::Precondition;
-use super::sparse::{build_rows_into, row_dot, spgemm, transpose, CsrMatrix};
+use super::sparse::{build_rows_into, row_dot, spgemm, transpose, CsrMatrix, Stored};
 use rayon::prelude::*;
 use std::sync::Mutex;
 
@@ -72,29 +75,39 @@ impl Default for AmgParams {
     }
 }
 
-/// One level of the hierarchy.
+/// How the V-cycle stores its matrices and vectors.
+type Low = f32;
+
+/// One level of the hierarchy, stored as the V-cycle reads it.
 #[derive(Clone, Debug)]
 struct Level {
-    /// This level's matrix; on level 0 the fine matrix without its weak couplings (empty
-    /// when none is dropped: the fine matrix passed in is used).
-    a: CsrMatrix,
+    /// This level's matrix; on level 0 the fine matrix without its weak couplings.
+    a: CsrMatrix<Low>,
     /// Inverse diagonal of this level's matrix.
-    inv_diag: Vec<f64>,
+    inv_diag: Vec<Low>,
     /// Estimate of the largest eigenvalue of `D^-1 A` (padded by 10 %).
     lambda_max: f64,
     /// Prolongator to this level from the next coarser one (`n x n_coarse`).
-    p: CsrMatrix,
+    p: CsrMatrix<Low>,
     /// Restriction `P^T`.
-    r: CsrMatrix,
+    r: CsrMatrix<Low>,
 }
 
 /// Work vectors of one level.
 #[derive(Clone, Debug, Default)]
 struct Work {
-    res: Vec<f64>,
-    dir: Vec<f64>,
-    b_coarse: Vec<f64>,
-    x_coarse: Vec<f64>,
+    res: Vec<Low>,
+    dir: Vec<Low>,
+    b_coarse: Vec<Low>,
+    x_coarse: Vec<Low>,
+}
+
+/// The V-cycle's work: one set per level, and the fine right-hand side and result.
+#[derive(Debug, Default)]
+struct Cycle {
+    levels: Vec<Work>,
+    b: Vec<Low>,
+    x: Vec<Low>,
 }
 
 /// A smoothed-aggregation AMG hierarchy.
@@ -106,7 +119,7 @@ pub struct Amg {
     coarse_n: usize,
     coarse_nnz: usize,
     params: AmgParams,
-    work: Mutex<Vec<Work>>,
+    work: Mutex<Cycle>,
 }
 
 impl Clone for Amg {
@@ -117,7 +130,7 @@ impl Clone for Amg {
             coarse_n: self.coarse_n,
             coarse_nnz: self.coarse_nnz,
             params: self.params,
-            work: Mutex::new(Vec::new()),
+            work: Mutex::new(Cycle::default()),
         }
     }
 }
@@ -331,8 +344,8 @@ fn dense_cholesky(a: &CsrMatrix) -> Option<Vec<f64>> {
     Some(l)
 }
 
-fn inverse_diagonal(a: &CsrMatrix) -> Vec<f64> {
-    a.diagonal().iter().map(|d| 1.0 / d).collect()
+fn inverse_diagonal<T: Stored, U: Stored>(a: &CsrMatrix<T>) -> Vec<U> {
+    a.diagonal().iter().map(|d| U::put(1.0 / d)).collect()
 }
 
 impl Amg {
@@ -359,16 +372,26 @@ impl Amg {
                 break;
             }
             let p = smoothed_prolongator(m, &inv_diag, lambda, &agg, n_agg);
-            let r = transpose(&p, n_agg);
+            drop((inv_diag, agg));
             let ap = spgemm(m, &p, n_agg);
-            let coarse = spgemm(&r, &ap, n_agg);
-            levels.push(Level {
-                a: current.take().unwrap_or_default(),
-                inv_diag,
+            // The level as the cycle stores it; its f64 matrix is let go before the coarse
+            // product (the set-up's peak memory).
+            let mut level = Level {
+                a: CsrMatrix::default(),
+                inv_diag: Vec::new(),
                 lambda_max: lambda,
-                p,
-                r,
-            });
+                p: CsrMatrix::default(),
+                r: CsrMatrix::default(),
+            };
+            m.convert_into(&mut level.a);
+            level.inv_diag = inverse_diagonal(&level.a);
+            drop(current.take());
+            let r = transpose(&p, n_agg);
+            let coarse = spgemm(&r, &ap, n_agg);
+            drop(ap);
+            p.convert_into(&mut level.p);
+            r.convert_into(&mut level.r);
+            levels.push(level);
             current = Some(coarse);
         }
         // A matrix too small for a hierarchy is factored whole, weak couplings included.
@@ -388,7 +411,7 @@ impl Amg {
             coarse_n,
             coarse_nnz,
             params,
-            work: Mutex::new(Vec::new()),
+            work: Mutex::new(Cycle::default()),
         })
     }
 
@@ -430,7 +453,7 @@ impl Amg {
             return;
         };
         let old = &l0.p;
-        let mut p = CsrMatrix::default();
+        let mut p = CsrMatrix::<Low>::default();
         p.row_ptr.reserve(from.len() + 1);
         p.row_ptr.push(0);
         for &o in from {
@@ -450,9 +473,9 @@ impl Amg {
     /// Chebyshev smoothing of `A x = b` on level `l` (`x` starts at 0 when `zero`). Each step
     /// is one pass over the rows: the residual of the iterate, the new direction and the
     /// next iterate, written into the other of `x` and `w.res` (so the last lands in `x`).
-    fn smooth(&self, a: &CsrMatrix, l: usize, b: &[f64], x: &mut [f64], zero: bool, w: &mut Work) {
+    fn smooth(&self, l: usize, b: &[Low], x: &mut [Low], zero: bool, w: &mut Work) {
         let lev = &self.levels[l];
-        let inv = &lev.inv_diag[..];
+        let (a, inv) = (&lev.a, &lev.inv_diag[..]);
         let hi = lev.lambda_max;
         let lo = hi * self.params.smoother_ratio;
         let theta = 0.5 * (hi + lo);
@@ -473,7 +496,7 @@ impl Amg {
                 .zip(dir.par_iter_mut())
                 .zip(b.par_iter().zip(inv.par_iter()))
                 .for_each(|((x, d), (b, di))| {
-                    *d = di * b / theta;
+                    *d = Low::put(di.get() * b.get() / theta);
                     *x = *d;
                 });
         } else {
@@ -498,61 +521,67 @@ impl Amg {
         }
     }
 
-    fn coarse_solve(&self, b: &[f64], x: &mut [f64]) {
+    /// The dense direct solve of the coarsest level (in `f64`, whatever `x` stores).
+    fn coarse_solve<X: Stored>(&self, b: &[X], x: &mut [X]) {
         let n = self.coarse_n;
         let l = &self.coarse_factor;
         for i in 0..n {
-            let mut s = b[i];
+            let mut s = b[i].get();
             for k in 0..i {
-                s -= l[i * n + k] * x[k];
+                s -= l[i * n + k] * x[k].get();
             }
-            x[i] = s / l[i * n + i];
+            x[i] = X::put(s / l[i * n + i]);
         }
         for i in (0..n).rev() {
-            let mut s = x[i];
+            let mut s = x[i].get();
             for k in i + 1..n {
-                s -= l[k * n + i] * x[k];
+                s -= l[k * n + i] * x[k].get();
             }
-            x[i] = s / l[i * n + i];
+            x[i] = X::put(s / l[i * n + i]);
         }
     }
 
-    fn vcycle(&self, a: &CsrMatrix, l: usize, b: &[f64], x: &mut [f64], work: &mut [Work]) {
+    fn vcycle(&self, l: usize, b: &[Low], x: &mut [Low], work: &mut [Work]) {
         if l == self.levels.len() {
             self.coarse_solve(b, x);
             return;
         }
         let (w, rest) = work.split_first_mut().expect("one work set per level");
-        // Level 0 works on its own (thinned) copy of the fine matrix where it has one.
-        let own = &self.levels[l].a;
-        let a = if own.n() > 0 { own } else { a };
-        self.smooth(a, l, b, x, true, w);
-        residual(a, b, x, &mut w.res);
+        self.smooth(l, b, x, true, w);
         let lev = &self.levels[l];
-        lev.r.spmv(&w.res, &mut w.b_coarse);
+        lev.a
+            .spmv_with(x, &mut w.res, |i, ax, r| *r = Low::put(b[i].get() - ax));
+        lev.r
+            .spmv_with(&w.res, &mut w.b_coarse, |_, rb, y| *y = Low::put(rb));
         w.x_coarse.iter_mut().for_each(|v| *v = 0.0);
-        let next = if l + 1 < self.levels.len() {
-            &self.levels[l + 1].a
-        } else {
-            a // unused by the direct solve
-        };
-        self.vcycle(next, l + 1, &w.b_coarse, &mut w.x_coarse, rest);
+        self.vcycle(l + 1, &w.b_coarse, &mut w.x_coarse, rest);
         // x += P x_coarse, in one pass.
-        lev.p.spmv_with(&w.x_coarse, x, |_, px, x| *x += px);
-        self.smooth(a, l, b, x, false, w);
+        lev.p
+            .spmv_with(&w.x_coarse, x, |_, px, x| *x = Low::put(x.get() + px));
+        self.smooth(l, b, x, false, w);
     }
 
-    /// `z = M^-1 r`: one V-cycle for the fine matrix `a`.
-    pub fn apply(&self, a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
+    /// `z = M^-1 r`: one V-cycle for the fine matrix `a` (`a` itself is not read: the
+    /// hierarchy holds its own copy of it, thinned and in single precision). The cycle is
+    /// linear, so it runs on `r` scaled to at most 1 in magnitude and its result is scaled
+    /// back: no residual's units can leave the range of `f32`.
+    pub fn apply(&self, _a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
         if self.levels.is_empty() {
             self.coarse_solve(r, z);
             return;
         }
+        let scale = r.par_iter().map(|v| v.abs()).reduce(|| 0.0, f64::max);
+        if !(scale > 0.0 && scale.is_finite()) {
+            // A zero residual has a zero correction; a non-finite one is CG's to report.
+            z.par_iter_mut().zip(r).for_each(|(z, r)| *z = r * 0.0);
+            return;
+        }
         let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
-        if guard.len() != self.levels.len() || guard[0].res.len() != r.len() {
+        let cycle = &mut *guard;
+        if cycle.levels.len() != self.levels.len() || cycle.b.len() != r.len() {
             // Zeroed to the new sizes, in the old vectors' memory.
-            guard.resize_with(self.levels.len(), Work::default);
-            for (l, (lev, w)) in self.levels.iter().zip(guard.iter_mut()).enumerate() {
+            cycle.levels.resize_with(self.levels.len(), Work::default);
+            for (l, (lev, w)) in self.levels.iter().zip(cycle.levels.iter_mut()).enumerate() {
                 let n = if l == 0 { r.len() } else { lev.a.n() };
                 let nc = lev.r.n();
                 for (v, len) in [
@@ -565,8 +594,20 @@ impl Amg {
                     v.resize(len, 0.0);
                 }
             }
+            for v in [&mut cycle.b, &mut cycle.x] {
+                v.clear();
+                v.resize(r.len(), 0.0);
+            }
         }
-        self.vcycle(a, 0, r, z, &mut guard);
+        let Cycle { levels, b, x } = cycle;
+        let to_unit = 1.0 / scale;
+        b.par_iter_mut()
+            .zip(r)
+            .for_each(|(b, r)| *b = Low::put(r * to_unit));
+        self.vcycle(0, b, x, levels);
+        z.par_iter_mut()
+            .zip(&x[..])
+            .for_each(|(z, x)| *z = x.get() * scale);
     }
 }
 
@@ -582,10 +623,10 @@ impl Level {
     fn set_fine(&mut self, a: &CsrMatrix, drop: f64) {
         if drop > 0.0 {
             without_weak_into(a, drop, &mut self.a);
-            self.inv_diag = inverse_diagonal(&self.a);
         } else {
-            self.inv_diag = inverse_diagonal(a);
+            a.convert_into(&mut self.a);
         }
+        self.inv_diag = inverse_diagonal(&self.a);
     }
 }
 
@@ -593,7 +634,7 @@ impl Level {
 /// with `|a_ij| < drop sqrt(a_ii a_jj)` is left out and added to the diagonal of its row, so
 /// each row keeps its sum; the test is symmetric, so a symmetric `a` gives a symmetric
 /// result. Rows must hold their diagonal.
-fn without_weak_into(a: &CsrMatrix, drop: f64, out: &mut CsrMatrix) {
+fn without_weak_into<T: Stored>(a: &CsrMatrix, drop: f64, out: &mut CsrMatrix<T>) {
     let d = a.diagonal();
     let d2 = drop * drop;
     let kept = |i: usize, j: usize, x: f64| j == i || !(x * x < d2 * d[i] * d[j]);
@@ -604,7 +645,7 @@ fn without_weak_into(a: &CsrMatrix, drop: f64, out: &mut CsrMatrix) {
             .filter(|(&j, &x)| kept(i, j as usize, x))
             .count() as u32
     };
-    let fill = |_: &mut (), i: usize, cols: &mut [u32], vals: &mut [f64]| {
+    let fill = |_: &mut (), i: usize, cols: &mut [u32], vals: &mut [T]| {
         let (c, v) = a.row(i);
         let (mut at, mut diag_at, mut dropped) = (0, usize::MAX, 0.0);
         for (&j, &x) in c.iter().zip(v) {
@@ -616,29 +657,30 @@ fn without_weak_into(a: &CsrMatrix, drop: f64, out: &mut CsrMatrix) {
                 diag_at = at;
             }
             cols[at] = j;
-            vals[at] = x;
+            vals[at] = T::put(x);
             at += 1;
         }
         if diag_at != usize::MAX {
-            vals[diag_at] += dropped;
+            // The row's sum kept in f64 before it is stored.
+            let (c, v) = a.row(i);
+            let d = c
+                .iter()
+                .position(|&j| j as usize == i)
+                .map_or(0.0, |k| v[k]);
+            vals[diag_at] = T::put(d + dropped);
         }
     };
     build_rows_into(a.n(), out, || (), len, fill);
 }
 
-/// `res = b - A x`.
-fn residual(a: &CsrMatrix, b: &[f64], x: &[f64], res: &mut [f64]) {
-    a.spmv_with(x, res, |i, ax, r| *r = b[i] - ax);
-}
-
 /// One smoothing step in one pass over the rows: with `r = b - A x`, each row's direction
 /// becomes `next(d, 1/a_ii, r)` (`inv` holds the `1/a_ii`) and the new iterate `out = x + d`.
 fn step_into(
-    a: &CsrMatrix,
-    (b, inv): (&[f64], &[f64]),
-    x: &[f64],
-    out: &mut [f64],
-    dir: &mut [f64],
+    a: &CsrMatrix<Low>,
+    (b, inv): (&[Low], &[Low]),
+    x: &[Low],
+    out: &mut [Low],
+    dir: &mut [Low],
     next: impl Fn(f64, f64, f64) -> f64 + Sync + Send,
 ) {
     const ROWS: usize = 1024;
@@ -649,9 +691,10 @@ fn step_into(
             for (k, (o, d)) in out.iter_mut().zip(dir).enumerate() {
                 let i = c * ROWS + k;
                 let (cols, vals) = a.row(i);
-                let r = b[i] - row_dot(cols, vals, x);
-                *d = next(*d, inv[i], r);
-                *o = x[i] + *d;
+                let r = b[i].get() - row_dot(cols, vals, x);
+                let di = next(d.get(), inv[i].get(), r);
+                *d = Low::put(di);
+                *o = Low::put(x[i].get() + di);
             }
         });
 }
@@ -673,7 +716,9 @@ mod tests {
             assert!(w[1] * 3 < w[0], "coarsening too slow: {sizes:?}");
         }
         for l in &amg.levels[1..] {
-            assert!(l.a.asymmetry() < 1e-12 * l.a.val.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+            // Stored in f32: symmetric to its rounding (a wrong product is off by O(1)).
+            let max = l.a.val.iter().fold(0.0f64, |m, v| m.max(v.get().abs()));
+            assert!(l.a.asymmetry() < 1e-6 * max);
         }
         assert!(amg.operator_complexity(&a) < 2.0);
     }
@@ -828,6 +873,60 @@ mod tests {
         kept.apply(&a_old, &r, &mut z1);
         same.apply(&a_old, &r, &mut z2);
         assert_eq!(z1, z2);
+    }
+
+    /// The cycle runs on the residual scaled to 1, so its result is linear in the residual
+    /// at any magnitude: without the scaling, residuals of 1e40 or 1e-50 (units that put a
+    /// PPE out of `f32`'s range) would give infinities or zeros.
+    #[test]
+    fn the_single_precision_cycle_is_linear_at_any_scale() {
+        let a = laplace_2d(40);
+        let amg = Amg::new(&a, AmgParams::default()).unwrap();
+        let r: Vec<f64> = (0..a.n()).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
+        let mut z = vec![0.0; a.n()];
+        amg.apply(&a, &r, &mut z);
+        let norm = z.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!(norm > 0.0);
+        for s in [1e40, 1e-50, 3.0] {
+            let rs: Vec<f64> = r.iter().map(|v| v * s).collect();
+            let mut zs = vec![0.0; a.n()];
+            amg.apply(&a, &rs, &mut zs);
+            let err = z
+                .iter()
+                .zip(&zs)
+                .map(|(u, v)| (u - v / s).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(err < 1e-6 * norm, "scale {s}: {err} of {norm}");
+        }
+        let mut zero = vec![1.0; a.n()];
+        amg.apply(&a, &vec![0.0; a.n()], &mut zero);
+        assert!(zero.iter().all(|&v| v == 0.0));
+    }
+
+    /// CG on the whole f64 matrix, preconditioned by the single-precision cycle, goes on
+    /// converging well past the cycle's own precision (a relative residual of 1e-13 against
+    /// f32's 6e-8) and its solution is the exact one to that accuracy.
+    #[test]
+    fn cg_converges_past_the_cycles_precision() {
+        let a = crate::linalg::sparse::tests::mps_lattice(48);
+        let exact: Vec<f64> = (0..a.n()).map(|i| (i as f64 * 0.013).sin() + 2.0).collect();
+        let mut b = vec![0.0; a.n()];
+        a.spmv(&exact, &mut b);
+        let mut x = vec![0.0; a.n()];
+        let pre = Amg::new(&a, AmgParams::for_dimension(2)).unwrap();
+        let s = pcg(&a, &b, &mut x, &pre, 1e-13, 200).unwrap();
+        let err = x
+            .iter()
+            .zip(&exact)
+            .map(|(u, v)| (u - v).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            err < 1e-9,
+            "max error {err} after {} iterations",
+            s.iterations
+        );
+        assert!(s.iterations <= 38, "{} iterations", s.iterations);
     }
 
     #[test]

@@ -8,15 +8,127 @@ use rayon::prelude::*;
 /// on the thread count: docs/decisions.md, "Parallel chunk sizes").
 pub const CHUNK: usize = 4096;
 
-/// A square sparse matrix in compressed-sparse-row form with `u32` column indices.
+/// How a matrix entry or a vector element is stored: `f64`, or `f32` where half the bytes
+/// streamed matter more than the digits (the AMG V-cycle: docs/decisions.md, "The V-cycle in
+/// single precision"). Arithmetic is always `f64`.
+pub trait Stored: Copy + Default + Send + Sync + 'static {
+    /// The stored value as `f64`.
+    fn get(self) -> f64;
+    /// `x` rounded to this storage.
+    fn put(x: f64) -> Self;
+    /// The product `a b` (in this precision: a stored value has no more digits to give).
+    fn mul(a: Self, b: Self) -> f64;
+}
+
+impl Stored for f64 {
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn put(x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn mul(a: Self, b: Self) -> f64 {
+        a * b
+    }
+}
+
+impl Stored for f32 {
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self as f64
+    }
+    #[inline(always)]
+    fn put(x: f64) -> Self {
+        x as f32
+    }
+    #[inline(always)]
+    fn mul(a: Self, b: Self) -> f64 {
+        (a * b) as f64
+    }
+}
+
+/// A square sparse matrix in compressed-sparse-row form with `u32` column indices, its
+/// values stored as `T`.
 #[derive(Clone, Debug, Default)]
-pub struct CsrMatrix {
+pub struct CsrMatrix<T = f64> {
     /// Row starts into `col`/`val` (length `n + 1`).
     pub row_ptr: Vec<u32>,
     /// Column index of each stored entry (sorted within a row).
     pub col: Vec<u32>,
     /// Value of each stored entry.
-    pub val: Vec<f64>,
+    pub val: Vec<T>,
+}
+
+impl<T: Stored> CsrMatrix<T> {
+    /// Number of rows.
+    pub fn n(&self) -> usize {
+        self.row_ptr.len().saturating_sub(1)
+    }
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.val.len()
+    }
+    /// The entries of row `i` as (columns, values).
+    #[inline]
+    pub fn row(&self, i: usize) -> (&[u32], &[T]) {
+        let (a, b) = (self.row_ptr[i] as usize, self.row_ptr[i + 1] as usize);
+        (&self.col[a..b], &self.val[a..b])
+    }
+    /// `f(i, (A x)_i, &mut y[i])` for every row `i`, parallel over rows: a product and
+    /// what is done with it in one pass (sums in `f64` whatever the storage).
+    pub fn spmv_with<Y: Send>(
+        &self,
+        x: &[T],
+        y: &mut [Y],
+        f: impl Fn(usize, f64, &mut Y) + Sync + Send,
+    ) {
+        y.par_chunks_mut(1024).enumerate().for_each(|(c, ys)| {
+            for (k, yi) in ys.iter_mut().enumerate() {
+                let i = c * 1024 + k;
+                let (cols, vals) = self.row(i);
+                f(i, row_dot(cols, vals, x), yi);
+            }
+        });
+    }
+    /// The diagonal entries (0 where none is stored).
+    pub fn diagonal(&self) -> Vec<f64> {
+        (0..self.n())
+            .into_par_iter()
+            .map(|i| {
+                let (c, v) = self.row(i);
+                c.iter()
+                    .position(|&j| j as usize == i)
+                    .map_or(0.0, |k| v[k].get())
+            })
+            .collect()
+    }
+    /// Value at `(i, j)`, 0 when not stored.
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let (c, v) = self.row(i);
+        c.binary_search(&(j as u32)).map_or(0.0, |k| v[k].get())
+    }
+    /// Largest `|A_ij - A_ji|` over stored entries.
+    pub fn asymmetry(&self) -> f64 {
+        (0..self.n())
+            .map(|i| {
+                let (c, v) = self.row(i);
+                c.iter()
+                    .zip(v)
+                    .map(|(&j, &a)| (a.get() - self.get(j as usize, i)).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max)
+    }
+    /// This matrix with its values rounded to `U`, into `out` (its memory reused).
+    pub fn convert_into<U: Stored>(&self, out: &mut CsrMatrix<U>) {
+        out.row_ptr.clone_from(&self.row_ptr);
+        out.col.clone_from(&self.col);
+        out.val.clear();
+        out.val.extend(self.val.iter().map(|v| U::put(v.get())));
+    }
 }
 
 impl CsrMatrix {
@@ -34,20 +146,6 @@ impl CsrMatrix {
             m.row_ptr.push(m.col.len() as u32);
         }
         m
-    }
-    /// Number of rows.
-    pub fn n(&self) -> usize {
-        self.row_ptr.len().saturating_sub(1)
-    }
-    /// Number of stored entries.
-    pub fn nnz(&self) -> usize {
-        self.val.len()
-    }
-    /// The entries of row `i` as (columns, values).
-    #[inline]
-    pub fn row(&self, i: usize) -> (&[u32], &[f64]) {
-        let (a, b) = (self.row_ptr[i] as usize, self.row_ptr[i + 1] as usize);
-        (&self.col[a..b], &self.val[a..b])
     }
     /// `y = A x`, parallel over rows.
     pub fn spmv(&self, x: &[f64], y: &mut [f64]) {
@@ -67,55 +165,10 @@ impl CsrMatrix {
                 }
             });
     }
-    /// `f(i, (A x)_i, &mut y[i])` for every row `i`, parallel over rows: a product and
-    /// what is done with it in one pass.
-    pub fn spmv_with(
-        &self,
-        x: &[f64],
-        y: &mut [f64],
-        f: impl Fn(usize, f64, &mut f64) + Sync + Send,
-    ) {
-        y.par_chunks_mut(1024).enumerate().for_each(|(c, ys)| {
-            for (k, yi) in ys.iter_mut().enumerate() {
-                let i = c * 1024 + k;
-                let (cols, vals) = self.row(i);
-                f(i, row_dot(cols, vals, x), yi);
-            }
-        });
-    }
-    /// The diagonal entries (0 where none is stored).
-    pub fn diagonal(&self) -> Vec<f64> {
-        (0..self.n())
-            .into_par_iter()
-            .map(|i| {
-                let (c, v) = self.row(i);
-                c.iter()
-                    .position(|&j| j as usize == i)
-                    .map_or(0.0, |k| v[k])
-            })
-            .collect()
-    }
-    /// Value at `(i, j)`, 0 when not stored.
-    pub fn get(&self, i: usize, j: usize) -> f64 {
-        let (c, v) = self.row(i);
-        c.binary_search(&(j as u32)).map_or(0.0, |k| v[k])
-    }
-    /// Largest `|A_ij - A_ji|` over stored entries.
-    pub fn asymmetry(&self) -> f64 {
-        (0..self.n())
-            .map(|i| {
-                let (c, v) = self.row(i);
-                c.iter()
-                    .zip(v)
-                    .map(|(&j, &a)| (a - self.get(j as usize, i)).abs())
-                    .fold(0.0, f64::max)
-            })
-            .fold(0.0, f64::max)
-    }
 }
 
 /// Transpose of an `n x ncols` CSR matrix (an `ncols x n` matrix, columns sorted).
-pub fn transpose(a: &CsrMatrix, ncols: usize) -> CsrMatrix {
+pub fn transpose<T: Stored>(a: &CsrMatrix<T>, ncols: usize) -> CsrMatrix<T> {
     let mut count = vec![0u32; ncols + 1];
     for &j in &a.col {
         count[j as usize + 1] += 1;
@@ -126,7 +179,7 @@ pub fn transpose(a: &CsrMatrix, ncols: usize) -> CsrMatrix {
     let row_ptr = count.clone();
     let mut next = count;
     let mut col = vec![0u32; a.nnz()];
-    let mut val = vec![0.0; a.nnz()];
+    let mut val = vec![T::default(); a.nnz()];
     for i in 0..a.n() {
         let (c, v) = a.row(i);
         for (&j, &x) in c.iter().zip(v) {
@@ -145,9 +198,9 @@ const BUILD_ROWS: usize = 1024;
 /// Sizes an `n`-row matrix `out` in its own memory: its row offsets from each row's number
 /// of entries, `len(scratch, i)` (computed in parallel over pieces of [`BUILD_ROWS`] rows,
 /// each with a scratch from `init`), and its columns and values zeroed to fit.
-pub fn size_rows_into<S>(
+pub fn size_rows_into<S, T: Stored>(
     n: usize,
-    out: &mut CsrMatrix,
+    out: &mut CsrMatrix<T>,
     init: impl Fn() -> S + Sync + Send,
     len: impl Fn(&mut S, usize) -> u32 + Sync + Send,
 ) {
@@ -168,7 +221,7 @@ pub fn size_rows_into<S>(
     // Every entry is written by the caller afterwards: the old ones are left as they are
     // and only new room is zeroed (not a sequential pass over every entry each time).
     out.col.resize(nnz, 0);
-    out.val.resize(nnz, 0.0);
+    out.val.resize(nnz, T::default());
 }
 
 /// Builds an `n`-row matrix into `out`, reusing its memory: `len(scratch, i)` gives row `i`'s
@@ -176,12 +229,12 @@ pub fn size_rows_into<S>(
 /// exactly that many into the row's place, in parallel over pieces of [`BUILD_ROWS`] rows,
 /// each with a scratch of its own from `init`. No row is built twice in memory (no per-row
 /// or per-piece copies to join).
-pub fn build_rows_into<S>(
+pub fn build_rows_into<S, T: Stored>(
     n: usize,
-    out: &mut CsrMatrix,
+    out: &mut CsrMatrix<T>,
     init: impl Fn() -> S + Sync + Send,
     len: impl Fn(&mut S, usize) -> u32 + Sync + Send,
-    fill: impl Fn(&mut S, usize, &mut [u32], &mut [f64]) + Sync + Send,
+    fill: impl Fn(&mut S, usize, &mut [u32], &mut [T]) + Sync + Send,
 ) {
     size_rows_into(n, out, &init, len);
     // Each piece's entries, split off in order.
@@ -255,19 +308,20 @@ pub fn spgemm(a: &CsrMatrix, b: &CsrMatrix, ncols: usize) -> CsrMatrix {
 }
 
 /// `sum_k vals[k] x[cols[k]]` with four partial sums, so a row's products do not wait on
-/// each other's additions (a fixed order: the same on any number of threads).
+/// each other's additions (a fixed order: the same on any number of threads), in `f64`
+/// whatever the storage.
 #[inline]
-pub fn row_dot(cols: &[u32], vals: &[f64], x: &[f64]) -> f64 {
+pub fn row_dot<T: Stored>(cols: &[u32], vals: &[T], x: &[T]) -> f64 {
     let mut acc = [0.0; 4];
     let (cs, vs) = (cols.chunks_exact(4), vals.chunks_exact(4));
     let (cr, vr) = (cs.remainder(), vs.remainder());
     for (c, v) in cs.zip(vs) {
         for k in 0..4 {
-            acc[k] += v[k] * x[c[k] as usize];
+            acc[k] += T::mul(v[k], x[c[k] as usize]);
         }
     }
     for (c, v) in cr.iter().zip(vr) {
-        acc[0] += v * x[*c as usize];
+        acc[0] += T::mul(*v, x[*c as usize]);
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
