@@ -53,6 +53,30 @@ pub fn pairs<'a, const D: usize>(
     })
 }
 
+/// How many of the neighbours [`pairs`] gives for `i` within `re` (m) `keep` accepts,
+/// counted without their geometry: a square root only where `r^2` lies within rounding of
+/// `re^2` (so the count is that of [`pairs`] exactly).
+#[inline]
+pub fn count_pairs<const D: usize>(
+    pos: &[Vector<D>],
+    nl: &NeighborList,
+    i: usize,
+    re: f64,
+    keep: impl Fn(usize) -> bool,
+) -> usize {
+    let nl = nl.for_radius(re);
+    let xi = pos[i];
+    let (far, near) = (re * re * (1.0 + 1e-9), re * re * (1.0 - 1e-9));
+    nl.of(i)
+        .iter()
+        .filter(|&&j| {
+            let j = j as usize;
+            let r2 = (pos[j] - xi).norm2();
+            r2 <= far && r2 > 0.0 && (r2 < near || r2.sqrt() < re) && keep(j)
+        })
+        .count()
+}
+
 impl<const D: usize> View<'_, D> {
     /// The neighbours of `i` within `re` (m) at the view's positions.
     #[inline]
@@ -82,5 +106,26 @@ mod tests {
         assert_eq!((p.j, p.r, p.r2), (1, 0.5, 0.25));
         assert_eq!(p.xij, Vector([0.5, 0.0]));
         assert_eq!(p.w, weight(0.5, 1.0));
+    }
+
+    /// The count agrees with the pairs on points at, just inside and just outside the
+    /// radius (the rounding band where the square root decides), coincident and far ones.
+    #[test]
+    fn count_pairs_counts_what_pairs_gives() {
+        let re = 0.0155;
+        let mut pos = vec![Vector([0.0, 0.0]), Vector([0.0, 0.0])];
+        for k in -40..=40 {
+            let r = re * (1.0 + k as f64 * 1e-12);
+            let t = k as f64 * 0.07;
+            pos.push(Vector([r * t.cos(), r * t.sin()]));
+            pos.push(Vector([0.3 * r * t.cos(), 0.9 * r * t.sin()]));
+        }
+        let nl = build_neighbor_list(&pos, 1.2 * re);
+        for i in [0, 5, 40] {
+            let want = pairs(&pos, &nl, i, re).filter(|p| p.j % 3 != 0).count();
+            assert_eq!(count_pairs(&pos, &nl, i, re, |j| j % 3 != 0), want);
+        }
+        let at_rim = pairs(&pos, &nl, 0, re).filter(|p| p.r > 0.99 * re).count();
+        assert!(at_rim > 10 && at_rim < 70, "{at_rim}");
     }
 }

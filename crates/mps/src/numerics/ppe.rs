@@ -15,6 +15,7 @@
 //! is air at `p = 0`, a term `c (p_i - 0)` on the diagonal (docs/decisions.md, "Air ghosts").
 
 use super::kernel::Kernels;
+use super::pairs::count_pairs;
 use super::scheme::Scheme;
 use super::source::source;
 use super::surface_pressure::{dirichlet_values_into, SurfacePressure};
@@ -182,11 +183,8 @@ impl<const D: usize> Rows<'_, D> {
     /// [`Rows::assemble`] gives a column (a fluid or wall particle that is an unknown).
     fn row_length(&self, i: usize) -> u32 {
         let (v, row_of) = (self.v, self.row_of);
-        let off_diagonal = v
-            .pairs(i, self.k.lap.re)
-            .filter(|q| matches!(v.kind[q.j], Kind::Fluid | Kind::Wall) && row_of[q.j] != NONE)
-            .count();
-        1 + off_diagonal as u32
+        let unknown = |j: usize| matches!(v.kind[j], Kind::Fluid | Kind::Wall) && row_of[j] != NONE;
+        1 + count_pairs(v.pos, v.neighbors, i, self.k.lap.re, unknown) as u32
     }
 }
 
