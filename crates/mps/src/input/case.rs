@@ -238,8 +238,8 @@ pub struct SolverSpec {
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
     /// Volume tolerance (dimensionless): the solve also stops once the residual's volume
-    /// error over the step, `dt^2 RMS(b - A p)`, is below it; 0 turns it off
-    /// (docs/decisions.md, "PPE stopping rule").
+    /// error over the step, `dt^2 RMS(b - A p)`, is below it (1e-8 by default); 0 turns it
+    /// off (docs/decisions.md, "PPE stopping rule", "The volume rule by default").
     #[serde(default = "default_volume_tolerance")]
     pub volume_tolerance: f64,
     /// Iteration limit; not converging within it is a breakdown.
@@ -265,7 +265,7 @@ fn default_tolerance() -> f64 {
     1e-8
 }
 fn default_volume_tolerance() -> f64 {
-    0.0
+    1e-8
 }
 fn default_max_iter() -> usize {
     5000
@@ -1158,19 +1158,22 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         assert!(e.to_string().contains("shortest side"), "{e}");
     }
 
-    /// The PPE's volume tolerance is a dimensionless fraction in [0, 1): 0 is off, a negative
+    /// The PPE's volume tolerance is a dimensionless fraction in [0, 1), 1e-8 by default: 0
+    /// is off, a negative
     /// or NaN value is named with the field and its value.
     #[test]
     fn a_bad_volume_tolerance_is_named() {
         let set = |v: &str| [("solver.volume_tolerance".to_string(), v.to_string())];
-        let c = Case::from_str_named(MINIMAL, "t.toml", &set("1e-8")).unwrap();
-        assert_eq!(c.solver.volume_tolerance, 1e-8);
+        let c = Case::from_str_named(MINIMAL, "t.toml", &set("1e-9")).unwrap();
+        assert_eq!(c.solver.volume_tolerance, 1e-9);
+        let off = Case::from_str_named(MINIMAL, "t.toml", &set("0")).unwrap();
+        assert_eq!(off.solver.volume_tolerance, 0.0);
         assert_eq!(
             Case::from_str_named(MINIMAL, "t.toml", &[])
                 .unwrap()
                 .solver
                 .volume_tolerance,
-            0.0
+            1e-8
         );
         for bad in ["-1e-8", "1.5", "nan"] {
             let e = Case::from_str_named(MINIMAL, "t.toml", &set(bad)).unwrap_err();
