@@ -238,10 +238,12 @@ pub struct SolverSpec {
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
     /// Volume tolerance (dimensionless): the solve also stops once the residual's volume
-    /// error over the step, `dt^2 RMS(b - A p)`, is below it (1e-8 by default); 0 turns it
-    /// off (docs/decisions.md, "PPE stopping rule", "The volume rule by default").
-    #[serde(default = "default_volume_tolerance")]
-    pub volume_tolerance: f64,
+    /// error over the step, `dt^2 RMS(b - A p)`, is below it; 0 turns it off. Unset, it is
+    /// 1e-8 with the default `tolerance` and off with a tolerance of the case's own (a
+    /// solve asked for 1e-12 gets 1e-12; [`SolverSpec::volume_rule`], docs/decisions.md,
+    /// "PPE stopping rule", "The volume rule by default").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume_tolerance: Option<f64>,
     /// Iteration limit; not converging within it is a breakdown.
     #[serde(default = "default_max_iter")]
     pub max_iterations: usize,
@@ -252,7 +254,7 @@ impl Default for SolverSpec {
         SolverSpec {
             kind: default_solver(),
             tolerance: default_tolerance(),
-            volume_tolerance: default_volume_tolerance(),
+            volume_tolerance: None,
             max_iterations: default_max_iter(),
         }
     }
@@ -264,8 +266,19 @@ fn default_solver() -> SolverKind {
 fn default_tolerance() -> f64 {
     1e-8
 }
-fn default_volume_tolerance() -> f64 {
-    1e-8
+/// The volume rule of a solver section that does not set it and keeps the default tolerance.
+const DEFAULT_VOLUME_TOLERANCE: f64 = 1e-8;
+
+impl SolverSpec {
+    /// The volume tolerance in force (dimensionless; 0 off): as set, else 1e-8 with the
+    /// default relative tolerance and 0 with one of the case's own.
+    pub fn volume_rule(&self) -> f64 {
+        match self.volume_tolerance {
+            Some(v) => v,
+            None if self.tolerance == default_tolerance() => DEFAULT_VOLUME_TOLERANCE,
+            None => 0.0,
+        }
+    }
 }
 fn default_max_iter() -> usize {
     5000
@@ -1158,23 +1171,25 @@ shape = { type = "rectangle", min = [0.0, 0.0], max = [0.5, 0.5] }
         assert!(e.to_string().contains("shortest side"), "{e}");
     }
 
-    /// The PPE's volume tolerance is a dimensionless fraction in [0, 1), 1e-8 by default: 0
-    /// is off, a negative
+    /// The PPE's volume tolerance is a dimensionless fraction in [0, 1), 1e-8 by default and
+    /// off under a tolerance of the case's own: 0 is off, a negative
     /// or NaN value is named with the field and its value.
     #[test]
     fn a_bad_volume_tolerance_is_named() {
         let set = |v: &str| [("solver.volume_tolerance".to_string(), v.to_string())];
         let c = Case::from_str_named(MINIMAL, "t.toml", &set("1e-9")).unwrap();
-        assert_eq!(c.solver.volume_tolerance, 1e-9);
+        assert_eq!(c.solver.volume_rule(), 1e-9);
         let off = Case::from_str_named(MINIMAL, "t.toml", &set("0")).unwrap();
-        assert_eq!(off.solver.volume_tolerance, 0.0);
-        assert_eq!(
-            Case::from_str_named(MINIMAL, "t.toml", &[])
-                .unwrap()
-                .solver
-                .volume_tolerance,
-            1e-8
-        );
+        assert_eq!(off.solver.volume_rule(), 0.0);
+        let plain = Case::from_str_named(MINIMAL, "t.toml", &[]).unwrap();
+        assert_eq!(plain.solver.volume_rule(), 1e-8);
+        // A tolerance of the case's own is solved to, unless the rule is set too.
+        let tight = [("solver.tolerance".to_string(), "1e-12".to_string())];
+        let own = Case::from_str_named(MINIMAL, "t.toml", &tight).unwrap();
+        assert_eq!(own.solver.volume_rule(), 0.0);
+        let both = [tight[0].clone(), set("1e-9")[0].clone()];
+        let both = Case::from_str_named(MINIMAL, "t.toml", &both).unwrap();
+        assert_eq!(both.solver.volume_rule(), 1e-9);
         for bad in ["-1e-8", "1.5", "nan"] {
             let e = Case::from_str_named(MINIMAL, "t.toml", &set(bad)).unwrap_err();
             assert_eq!(e.field, "solver.volume_tolerance", "{e}");

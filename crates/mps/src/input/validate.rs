@@ -388,7 +388,7 @@ impl Case {
             tol,
             "must lie in (0, 1)",
         )?;
-        let vol = self.solver.volume_tolerance;
+        let vol = self.solver.volume_rule();
         c.require(
             (0.0..1.0).contains(&vol),
             "solver.volume_tolerance",

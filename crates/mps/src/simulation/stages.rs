@@ -419,13 +419,10 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// The relative residual the PPE of a step `dt` (s) is solved to: the case's
-    /// `solver.tolerance`, loosened by `solver.volume_tolerance` ([`stopping_tolerance`]),
+    /// `solver.tolerance`, loosened by its volume rule ([`stopping_tolerance`]),
     /// from the right-hand side's norm over every process's own rows.
     fn solve_tolerance(&mut self, sys: &PressureSystem, dt: f64) -> f64 {
-        let (tol, volume) = (
-            self.case.solver.tolerance,
-            self.case.solver.volume_tolerance,
-        );
+        let (tol, volume) = (self.case.solver.tolerance, self.case.solver.volume_rule());
         if volume <= 0.0 {
             return tol;
         }
