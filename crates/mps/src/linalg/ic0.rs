@@ -3,9 +3,9 @@
 
 use super::pcg::Precondition;
 use super::sparse::CsrMatrix;
-use std::sync::Mutex;
+use std::ops::Range;
 
-/// The row of [`Carried::from`] that the factor does not know.
+/// A row of a carried preconditioner's map that its factor does not know (a new unknown).
 pub const NEW_ROW: u32 = u32::MAX;
 
 /// Incomplete Cholesky factor `L` (lower triangle incl. diagonal, row-wise) with the
@@ -20,8 +20,12 @@ pub struct Ic0 {
 impl Ic0 {
     /// Factors `a`; `None` if a pivot is not positive.
     pub fn new(a: &CsrMatrix) -> Option<Ic0> {
-        let n = a.n();
-        let mut l = lower_triangle(a);
+        Ic0::of_lower(lower_triangle(a))
+    }
+
+    /// IC(0) of the matrix whose lower triangle (diagonal last in each row) is `l`.
+    pub(crate) fn of_lower(mut l: CsrMatrix) -> Option<Ic0> {
+        let n = l.n();
         // Row i's entries scattered by column (zero off its pattern), so that each entry's
         // sum over row k is a gather without a search (docs/decisions.md, "IC(0) set-up").
         let mut w = vec![0.0; n];
@@ -70,9 +74,15 @@ impl Ic0 {
     /// once warm, a set-up allocates nothing. False (the factor unusable) if a pivot is not
     /// positive.
     pub fn modify_from(&mut self, a: &CsrMatrix, omega: f64, scratch: &mut Mic0Scratch) -> bool {
-        let n = a.n();
+        lower_triangle_into(a, &mut self.l);
+        self.modify_lower(omega, scratch)
+    }
+
+    /// [`Ic0::modify_from`] of the matrix whose lower triangle (diagonal last in each row)
+    /// this factor's memory holds.
+    pub(crate) fn modify_lower(&mut self, omega: f64, scratch: &mut Mic0Scratch) -> bool {
         let l = &mut self.l;
-        lower_triangle_into(a, l);
+        let n = l.n();
         let Mic0Scratch {
             start,
             below,
@@ -130,6 +140,62 @@ impl Ic0 {
         true
     }
 
+    /// The factor's memory, for a caller that writes a lower triangle into it.
+    pub(crate) fn lower_mut(&mut self) -> &mut CsrMatrix {
+        &mut self.l
+    }
+
+    /// Rows in the factor.
+    pub fn n(&self) -> usize {
+        self.inv_diag.len()
+    }
+
+    /// Forward substitution `L y = r` over the factor's rows `rows`, whose entries left of
+    /// the diagonal lie in columns already solved.
+    ///
+    /// # Safety
+    /// `r` and `y` point to vectors of the factor's size; no other thread writes the
+    /// entries of `y` these rows read or write until the caller's next barrier.
+    pub(crate) unsafe fn forward_rows(&self, rows: Range<usize>, r: *const f64, y: *mut f64) {
+        let l = &self.l;
+        for i in rows {
+            let (c, v) = l.row(i);
+            let m = c.len() - 1;
+            let (c, v) = (&c[..m], &v[..m]);
+            let mut acc = [0.0; 4];
+            let (cs, vs) = (c.chunks_exact(4), v.chunks_exact(4));
+            let (cr, vr) = (cs.remainder(), vs.remainder());
+            for (c, v) in cs.zip(vs) {
+                for k in 0..4 {
+                    acc[k] += v[k] * *y.add(c[k] as usize);
+                }
+            }
+            for (c, v) in cr.iter().zip(vr) {
+                acc[0] += *v * *y.add(*c as usize);
+            }
+            let s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+            *y.add(i) = (*r.add(i) - s) * self.inv_diag[i];
+        }
+    }
+
+    /// Backward substitution `L^T z = y` in place over the factor's rows `rows`, last row
+    /// first (each row's result subtracted from the entries left of its diagonal).
+    ///
+    /// # Safety
+    /// `z` points to a vector of the factor's size; no other thread reads or writes the
+    /// entries these rows touch until the caller's next barrier.
+    pub(crate) unsafe fn backward_rows(&self, rows: Range<usize>, z: *mut f64) {
+        let l = &self.l;
+        for i in rows.rev() {
+            let (c, v) = l.row(i);
+            let zi = *z.add(i) * self.inv_diag[i];
+            *z.add(i) = zi;
+            for k in 0..c.len() - 1 {
+                *z.add(c[k] as usize) -= v[k] * zi;
+            }
+        }
+    }
+
     /// The preconditioner of factor `l` (diagonal last in each row).
     fn from_factor(l: CsrMatrix) -> Ic0 {
         let mut f = Ic0 {
@@ -178,6 +244,12 @@ fn lower_triangle(a: &CsrMatrix) -> CsrMatrix {
 
 /// [`lower_triangle`] into `l`, reusing its memory.
 fn lower_triangle_into(a: &CsrMatrix, l: &mut CsrMatrix) {
+    lower_triangle_twisted_into(a, a.n(), l)
+}
+
+/// The lower triangle (diagonal last in each row) of `a` in the twisted numbering with the
+/// second part from `m` (`m = n`: the plain order), into `l` (linalg/twisted.rs).
+pub(crate) fn lower_triangle_twisted_into(a: &CsrMatrix, m: usize, l: &mut CsrMatrix) {
     let n = a.n();
     let CsrMatrix { row_ptr, col, val } = l;
     row_ptr.clear();
@@ -187,12 +259,25 @@ fn lower_triangle_into(a: &CsrMatrix, l: &mut CsrMatrix) {
     col.reserve(a.nnz() / 2 + n);
     val.reserve(a.nnz() / 2 + n);
     row_ptr.push(0u32);
-    for i in 0..n {
-        let (c, v) = a.row(i);
-        for (&j, &x) in c.iter().zip(v) {
-            if (j as usize) <= i {
+    let flip = (m + n).saturating_sub(1);
+    for k in 0..n {
+        let o = if k < m { k } else { flip - k };
+        let (c, v) = a.row(o);
+        // Columns of the first part keep their numbers (all below a second-part row).
+        let first = c.partition_point(|&j| (j as usize) < m);
+        if k < m {
+            for (&j, &x) in c.iter().zip(v).take_while(|(&j, _)| j as usize <= k) {
                 col.push(j);
                 val.push(x);
+            }
+        } else {
+            col.extend_from_slice(&c[..first]);
+            val.extend_from_slice(&v[..first]);
+            // Second-part columns `j >= o` become `flip - j <= k`: last column first.
+            let from = c.partition_point(|&j| (j as usize) < o).max(first);
+            for p in (from..c.len()).rev() {
+                col.push((flip - c[p] as usize) as u32);
+                val.push(v[p]);
             }
         }
         row_ptr.push(col.len() as u32);
@@ -251,52 +336,6 @@ fn columns_below_into(
             below[fill[k as usize] as usize] = (i as u32, (s + q) as u32);
             fill[k as usize] += 1;
         }
-    }
-}
-
-/// A factor built for an earlier system, applied to a system whose unknowns are nearly the
-/// same particles (docs/decisions.md, "MIC(0) carried over"): `z = S^T (L L^T)^-1 S r` on the
-/// rows the factor knows (`from[k]`, the factor's row of the system's row `k`), `r_k / a_kk`
-/// on rows it does not know ([`NEW_ROW`]). Symmetric positive definite whenever the factor is, so
-/// CG converges to the same tolerance; only its speed depends on how stale the factor is.
-pub struct Carried<'a> {
-    /// The earlier factor.
-    pub factor: &'a Ic0,
-    /// The factor's row of each row of the system, [`NEW_ROW`] where it has none.
-    pub from: &'a [u32],
-    /// Two vectors of the factor's size (kept by the caller, so no allocation per apply).
-    pub work: &'a Mutex<(Vec<f64>, Vec<f64>)>,
-}
-
-impl Precondition for Carried<'_> {
-    fn apply(&self, a: &CsrMatrix, r: &[f64], z: &mut [f64]) {
-        let mut work = self.work.lock().unwrap_or_else(|e| e.into_inner());
-        let (ro, zo) = &mut *work;
-        let m = self.factor.inv_diag.len();
-        ro.clear();
-        ro.resize(m, 0.0);
-        zo.resize(m, 0.0);
-        for (k, &o) in self.from.iter().enumerate() {
-            if o != NEW_ROW {
-                ro[o as usize] = r[k];
-            }
-        }
-        self.factor.apply(ro, zo);
-        for (k, &o) in self.from.iter().enumerate() {
-            z[k] = if o != NEW_ROW {
-                zo[o as usize]
-            } else {
-                let (c, v) = a.row(k);
-                let d = c
-                    .iter()
-                    .position(|&j| j as usize == k)
-                    .map_or(1.0, |p| v[p]);
-                r[k] / d
-            };
-        }
-    }
-    fn sequential(&self) -> bool {
-        true
     }
 }
 
@@ -451,104 +490,5 @@ mod tests {
         let relaxed = Ic0::modified(&a, 0.97).unwrap();
         let (i_ic, i_mic) = (its(&ic), its(&relaxed));
         assert!(i_mic * 4 < i_ic * 3, "MIC {i_mic} vs IC {i_ic} iterations");
-    }
-
-    /// A factor carried over to a system whose unknowns are nearly the same: the Laplacian
-    /// of a 40 x 40 grid, then the same grid in reverse order with 20 nodes of its top row
-    /// gone (Dirichlet, as free-surface particles flag) and 30 new ones (a 41st column, as
-    /// particles join): 3 % of the rows changed.
-    /// CG with the carried factor reaches the same solution (the preconditioner stays SPD)
-    /// in at most twice the iterations of a fresh MIC(0) (measured 43 against 28) and a
-    /// third of Jacobi's (157); carried
-    /// to the very same rows it is the factor itself.
-    #[test]
-    fn a_carried_factor_preconditions_a_nearly_equal_system() {
-        use crate::linalg::pcg::Jacobi;
-        let m = 40;
-        let old = laplacian(m);
-        let f = Ic0::modified(&old, 0.97).unwrap();
-        // Node ids: (x, y) -> y * 41 + x on a 41-wide grid; the old system holds x < 40.
-        let old_row_of = |id: usize| {
-            let (x, y) = (id % 41, id / 41);
-            (x < m && y < m).then_some((y * m + x) as u32)
-        };
-        let gone = |x: usize, y: usize| y == m - 1 && x.is_multiple_of(2);
-        let mut ids: Vec<usize> = (0..m)
-            .flat_map(|y| (0..=m).map(move |x| (x, y)))
-            .filter(|&(x, y)| !gone(x, y) && (x < m || y < 30))
-            .map(|(x, y)| y * 41 + x)
-            .collect();
-        ids.reverse();
-        let row_of_id = |id: usize| ids.iter().position(|&k| k == id);
-        let a = CsrMatrix::from_rows(ids.iter().map(|&id| {
-            let (x, y) = ((id % 41) as i64, (id / 41) as i64);
-            let mut row = vec![];
-            for (dx, dy, v) in [
-                (0, -1, -1.0),
-                (-1, 0, -1.0),
-                (0, 0, 4.0),
-                (1, 0, -1.0),
-                (0, 1, -1.0),
-            ] {
-                let (u, w) = (x + dx, y + dy);
-                if u < 0 || w < 0 || u > m as i64 {
-                    continue;
-                }
-                if let Some(k) = row_of_id((w * 41 + u) as usize) {
-                    row.push((k as u32, v));
-                }
-            }
-            row.sort_by_key(|e| e.0);
-            row
-        }));
-        let from: Vec<u32> = ids
-            .iter()
-            .map(|&id| old_row_of(id).unwrap_or(NEW_ROW))
-            .collect();
-        let new = from.iter().filter(|&&o| o == NEW_ROW).count();
-        assert_eq!((a.n(), new), (m * m - 20 + 30, 30));
-        let n = a.n();
-        let b: Vec<f64> = (0..n).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
-        let work = Mutex::new((Vec::new(), Vec::new()));
-        let carried = Carried {
-            factor: &f,
-            from: &from,
-            work: &work,
-        };
-        let solve = |p: &dyn Precondition| {
-            let mut x = vec![0.0; n];
-            let it = pcg(&a, &b, &mut x, p, 1e-10, 5000).unwrap().iterations;
-            let mut ax = vec![0.0; n];
-            a.spmv(&x, &mut ax);
-            let res = ax
-                .iter()
-                .zip(&b)
-                .map(|(p, q)| (p - q).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            let bn = b.iter().map(|q| q * q).sum::<f64>().sqrt();
-            assert!(res < 1e-9 * bn, "residual {res} of {bn}");
-            it
-        };
-        let fresh = Ic0::modified(&a, 0.97).unwrap();
-        let (i_carried, i_fresh, i_jacobi) =
-            (solve(&carried), solve(&fresh), solve(&Jacobi::new(&a)));
-        assert!(
-            i_carried <= 2 * i_fresh && 3 * i_carried < i_jacobi,
-            "carried {i_carried}, fresh {i_fresh}, Jacobi {i_jacobi}"
-        );
-        // Carried to the rows it was built for, in their order: the factor itself.
-        let same: Vec<u32> = (0..(m * m) as u32).collect();
-        let work = Mutex::new((Vec::new(), Vec::new()));
-        let itself = Carried {
-            factor: &f,
-            from: &same,
-            work: &work,
-        };
-        let r: Vec<f64> = (0..m * m).map(|i| (i as f64 * 0.37).sin()).collect();
-        let (mut z1, mut z2) = (vec![0.0; m * m], vec![0.0; m * m]);
-        itself.apply(&old, &r, &mut z1);
-        f.apply(&r, &mut z2);
-        assert_eq!(z1, z2);
     }
 }

@@ -10,12 +10,15 @@ pub mod dilu;
 pub mod ic0;
 pub mod pcg;
 pub mod sparse;
+pub mod team;
+pub mod twisted;
 
 pub use amg::{Amg, AmgParams};
 pub use dilu::{dilu_cg, dilu_cg_in, Dilu, DiluCgVectors};
-pub use ic0::{Carried, Ic0, Mic0Scratch, NEW_ROW};
+pub use ic0::{Ic0, Mic0Scratch, NEW_ROW};
 pub use pcg::{pcg, pcg_in, CgVectors, Identity, Jacobi, NotConverged, Precondition, SolveStats};
 pub use sparse::CsrMatrix;
+pub use twisted::{twisted_cg_in, Twisted, TwistedCgVectors, TwistedPre};
 
 use serde::{Deserialize, Serialize};
 

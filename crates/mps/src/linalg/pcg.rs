@@ -123,6 +123,15 @@ fn update_x_r(
     })
 }
 
+/// The outcome after `it` iterations if the residual norm `rnorm` has reached `tol` times
+/// the right-hand side's norm `bnorm`.
+pub(crate) fn converged(it: usize, rnorm: f64, bnorm: f64, tol: f64) -> Option<SolveStats> {
+    (rnorm <= tol * bnorm).then(|| SolveStats {
+        iterations: it,
+        residual: rnorm / bnorm,
+    })
+}
+
 /// Preconditioned conjugate gradient for SPD `a`, starting from `x` (warm start), to the
 /// relative residual `tol`.
 pub fn pcg(
@@ -179,11 +188,8 @@ pub fn pcg_in(
         .with_min_len(ml)
         .for_each(|(ri, bi)| *ri = bi - *ri);
     let mut rnorm = dot(r, r).sqrt();
-    if rnorm <= tol * bnorm {
-        return Ok(SolveStats {
-            iterations: 0,
-            residual: rnorm / bnorm,
-        });
+    if let Some(done) = converged(0, rnorm, bnorm, tol) {
+        return Ok(done);
     }
     m.apply(a, r, z);
     p.clear();
@@ -201,11 +207,8 @@ pub fn pcg_in(
         if !rnorm.is_finite() {
             break;
         }
-        if rnorm <= tol * bnorm {
-            return Ok(SolveStats {
-                iterations: it,
-                residual: rnorm / bnorm,
-            });
+        if let Some(done) = converged(it, rnorm, bnorm, tol) {
+            return Ok(done);
         }
         m.apply(a, r, z);
         let rz_new = dot(r, z);

@@ -4,13 +4,13 @@
 
 use crate::input::case::SolverSpec;
 use crate::linalg::{
-    dilu_cg_in, pcg_in, Amg, AmgParams, Carried, CgVectors, Dilu, DiluCgVectors, Ic0, Identity,
-    Jacobi, Mic0Scratch, NotConverged, SolveStats, DILU_OMEGA, MIC_OMEGA, NEW_ROW,
+    dilu_cg_in, pcg_in, twisted_cg_in, Amg, AmgParams, CgVectors, Dilu, DiluCgVectors, Ic0,
+    Identity, Jacobi, Mic0Scratch, NotConverged, SolveStats, Twisted, TwistedCgVectors, TwistedPre,
+    DILU_OMEGA, MIC_OMEGA, NEW_ROW,
 };
 use crate::linalg::{Precondition, SolverKind};
 use crate::numerics::ppe::PressureSystem;
 use crate::particles::NONE;
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 /// Steps an AMG hierarchy is reused for while the unknowns are the same or nearly the same
@@ -82,8 +82,6 @@ struct MicCache {
     from: Vec<u32>,
     /// The current system's row ids (memory kept between steps).
     row_ids: Vec<u32>,
-    /// The carried preconditioner's two work vectors.
-    work: Mutex<(Vec<f64>, Vec<f64>)>,
 }
 
 /// What one solve is asked: the system, every particle's id (by particle index), the
@@ -141,7 +139,8 @@ pub struct PressureSolver {
     max_iterations: usize,
     amg: Option<AmgCache>,
     /// The last MIC(0) factor and its set-up's scratch, whose memory the next set-up uses.
-    mic: Ic0,
+    mic: Twisted,
+    cg_twisted: TwistedCgVectors,
     mic_scratch: Mic0Scratch,
     /// What the last factor was built for, so it can be carried over.
     mic_cache: MicCache,
@@ -171,6 +170,23 @@ pub fn stopping_tolerance(tol: f64, volume: f64, bnorm: f64, rows: f64, dt: f64)
     tol.max(loose.min(0.5))
 }
 
+/// Threads that solve a MIC(0) system together ([`twisted_cg_in`]).
+const MIC_TEAM: usize = 2;
+
+/// Runs the twisted MIC(0)-CG from `x` with `pre`, timing it.
+fn timed_twisted(
+    sys: &PressureSystem,
+    x: &mut [f64],
+    pre: TwistedPre,
+    (tol, max_iter): (f64, usize),
+    work: &mut TwistedCgVectors,
+) -> (Result<SolveStats, NotConverged>, Duration) {
+    let t = Instant::now();
+    let lim = (tol, max_iter, MIC_TEAM);
+    let r = twisted_cg_in(&sys.matrix, &sys.rhs, x, pre, lim, work);
+    (r, t.elapsed())
+}
+
 /// Runs PCG from `x` with preconditioner `m`, timing it.
 fn timed_pcg(
     sys: &PressureSystem,
@@ -192,7 +208,8 @@ impl PressureSolver {
             dimension,
             max_iterations: spec.max_iterations,
             amg: None,
-            mic: Ic0::default(),
+            mic: Twisted::default(),
+            cg_twisted: TwistedCgVectors::default(),
             mic_scratch: Mic0Scratch::default(),
             mic_cache: MicCache::default(),
             committed: Committed::default(),
@@ -329,47 +346,45 @@ impl PressureSolver {
             if changed as f64 <= AMG_MAX_CHANGED_SHARE * c.row_ids.len() as f64 {
                 c.age += 1;
                 report.setup = t0.elapsed();
-                if changed == 0 && c.from.iter().enumerate().all(|(k, &o)| o as usize == k) {
-                    // The same unknowns in the same order: the factor as it is.
-                    return timed_pcg(sys, x, &self.mic, (tol, max_iter), &mut self.cg);
-                }
+                let same = changed == 0 && c.from.iter().enumerate().all(|(k, &o)| o as usize == k);
                 c.from
                     .iter_mut()
                     .filter(|o| **o == NONE)
                     .for_each(|o| *o = NEW_ROW);
-                let carried = Carried {
+                let pre = TwistedPre {
                     factor: &self.mic,
-                    from: &c.from,
-                    work: &c.work,
+                    // The same unknowns in the same order: the factor as it is.
+                    from: (!same).then_some(&c.from[..]),
                 };
-                return timed_pcg(sys, x, &carried, (tol, max_iter), &mut self.cg);
+                return timed_twisted(sys, x, pre, (tol, max_iter), &mut self.cg_twisted);
             }
         }
         // Set up in the last factor's memory.
-        let mut mic = std::mem::take(&mut self.mic);
-        let f = match mic.modify_from(&sys.matrix, MIC_OMEGA, &mut self.mic_scratch) {
-            true => Some(mic),
-            false => Ic0::new(&sys.matrix),
-        };
+        let built = self
+            .mic
+            .rebuild(&sys.matrix, MIC_OMEGA, &mut self.mic_scratch);
         let c = &mut self.mic_cache;
         c.valid = false;
         c.generation += 1;
-        let Some(f) = f else {
+        if !built {
             self.fallbacks += 1;
             report.fallback = true;
             let pre = Jacobi::new(&sys.matrix);
             report.setup = t0.elapsed();
             return timed_pcg(sys, x, &pre, (tol, max_iter), &mut self.cg);
-        };
+        }
         report.setup = t0.elapsed();
-        let solved = timed_pcg(sys, x, &f, (tol, max_iter), &mut self.cg);
+        let pre = TwistedPre {
+            factor: &self.mic,
+            from: None,
+        };
+        let solved = timed_twisted(sys, x, pre, (tol, max_iter), &mut self.cg_twisted);
         if let Ok(st) = &solved.0 {
             c.keys.rekey(&c.row_ids);
             c.setup_iterations = st.iterations;
             c.age = 0;
             c.valid = true;
         }
-        self.mic = f;
         solved
     }
 

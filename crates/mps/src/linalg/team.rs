@@ -1,0 +1,215 @@
+//! A team of the pool's threads kept together for one whole solve, meeting at spin barriers
+//! instead of being handed each short pass by the pool (docs/decisions.md, "MIC(0) in the
+//! twisted numbering"). A CG iteration of a few thousand unknowns lasts about 100 us: a
+//! worker woken for each of its passes sleeps between them and costs more than it brings.
+
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// Spins of a waiting member before it yields its core (a few microseconds): on a loaded
+/// machine the other member may not be running.
+const SPINS_BEFORE_YIELD: u32 = 4000;
+
+/// The meeting point of a team.
+struct Barrier {
+    size: usize,
+    arrived: AtomicUsize,
+    generation: AtomicUsize,
+    /// Set when a member panicked: the others stop waiting for it.
+    broken: AtomicBool,
+}
+
+/// One member of a running team: its index in `0..size` and the team's barrier.
+pub struct Member<'a> {
+    /// This member's index.
+    pub index: usize,
+    /// How many members the team has.
+    pub size: usize,
+    barrier: &'a Barrier,
+}
+
+impl Member<'_> {
+    /// Waits until every member has arrived here; what any member wrote before it is
+    /// visible to all after it.
+    pub fn wait(&self) {
+        let b = self.barrier;
+        if b.size == 1 {
+            return;
+        }
+        let gen = b.generation.load(Ordering::Acquire);
+        if b.arrived.fetch_add(1, Ordering::AcqRel) + 1 == b.size {
+            b.arrived.store(0, Ordering::Relaxed);
+            b.generation.store(gen + 1, Ordering::Release);
+            return;
+        }
+        let mut spins = 0;
+        while b.generation.load(Ordering::Acquire) == gen {
+            if b.broken.load(Ordering::Relaxed) {
+                panic!("a member of the solver's team panicked");
+            }
+            if spins < SPINS_BEFORE_YIELD {
+                std::hint::spin_loop();
+                spins += 1;
+            } else {
+                std::thread::yield_now();
+            }
+        }
+    }
+
+    /// This member's share of `0..blocks` (contiguous, in member order).
+    pub fn share(&self, blocks: usize) -> Range<usize> {
+        (self.index * blocks / self.size)..((self.index + 1) * blocks / self.size)
+    }
+}
+
+/// Marks the barrier broken if its member unwinds.
+struct Guard<'a>(&'a Barrier);
+
+impl Drop for Guard<'_> {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.0.broken.store(true, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Runs `work` on a team of `size` members: on this thread alone for 1, else on the first
+/// `size` threads of the current rayon pool (at most its size), all at once.
+pub fn run_team(size: usize, work: impl Fn(&Member) + Sync) {
+    let size = size.clamp(1, rayon::current_num_threads());
+    let barrier = Barrier {
+        size,
+        arrived: AtomicUsize::new(0),
+        generation: AtomicUsize::new(0),
+        broken: AtomicBool::new(false),
+    };
+    let member = |index| {
+        let _guard = Guard(&barrier);
+        work(&Member {
+            index,
+            size,
+            barrier: &barrier,
+        })
+    };
+    if size == 1 {
+        return member(0);
+    }
+    rayon::broadcast(|ctx| {
+        if ctx.index() < size {
+            member(ctx.index())
+        }
+    });
+}
+
+/// A vector the members of a team share: each writes only where no other member reads or
+/// writes until the next barrier.
+#[derive(Clone, Copy)]
+pub struct Shared {
+    ptr: *mut f64,
+    len: usize,
+}
+
+// SAFETY: members touch disjoint parts between barriers (the callers' contract), and the
+// barrier orders their accesses.
+unsafe impl Send for Shared {}
+// SAFETY: as above.
+unsafe impl Sync for Shared {}
+
+impl Shared {
+    /// Shares `v` for the lifetime of the borrow the caller keeps.
+    pub fn new(v: &mut [f64]) -> Shared {
+        Shared {
+            ptr: v.as_mut_ptr(),
+            len: v.len(),
+        }
+    }
+
+    /// Entries `r`, to write.
+    ///
+    /// # Safety
+    /// No other member touches `r` until the next barrier, and the vector outlives the use.
+    #[allow(clippy::mut_from_ref)]
+    pub unsafe fn part(&self, r: Range<usize>) -> &mut [f64] {
+        assert!(r.start <= r.end && r.end <= self.len);
+        std::slice::from_raw_parts_mut(self.ptr.add(r.start), r.end - r.start)
+    }
+
+    /// The whole vector, to read.
+    ///
+    /// # Safety
+    /// No member writes it until the next barrier.
+    pub unsafe fn all(&self) -> &[f64] {
+        std::slice::from_raw_parts(self.ptr, self.len)
+    }
+
+    /// The raw pointer, for passes whose members write disjoint scattered entries.
+    pub fn ptr(&self) -> *mut f64 {
+        self.ptr
+    }
+
+    /// Its length.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two members each fill their half, meet, and then each reads the other's half: every
+    /// round sees the other's writes of that round (a broken barrier shows a stale value).
+    #[test]
+    fn members_see_each_others_writes_after_the_barrier() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let mut v = vec![0.0; 2];
+        let shared = Shared::new(&mut v);
+        let errors = AtomicUsize::new(0);
+        pool.install(|| {
+            run_team(2, |m| {
+                for round in 1..=2000 {
+                    // SAFETY: each member writes its own entry between barriers.
+                    unsafe { shared.part(m.index..m.index + 1)[0] = round as f64 };
+                    m.wait();
+                    // SAFETY: nobody writes until the next barrier.
+                    let other = unsafe { shared.all()[1 - m.index] };
+                    if other != round as f64 {
+                        errors.fetch_add(1, Ordering::Relaxed);
+                    }
+                    m.wait();
+                }
+            })
+        });
+        assert_eq!(errors.load(Ordering::Relaxed), 0);
+        assert_eq!(v, vec![2000.0, 2000.0]);
+    }
+
+    #[test]
+    fn shares_cover_the_blocks_once() {
+        let b = Barrier {
+            size: 3,
+            arrived: AtomicUsize::new(0),
+            generation: AtomicUsize::new(0),
+            broken: AtomicBool::new(false),
+        };
+        let parts: Vec<Range<usize>> = (0..3)
+            .map(|index| {
+                Member {
+                    index,
+                    size: 3,
+                    barrier: &b,
+                }
+                .share(10)
+            })
+            .collect();
+        assert_eq!(parts, vec![0..3, 3..6, 6..10]);
+    }
+}
