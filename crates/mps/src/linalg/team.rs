@@ -6,9 +6,9 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// Spins of a waiting member before it yields its core (a few microseconds): on a loaded
+/// Spins of a waiting member before it yields its core (some microseconds): on a loaded
 /// machine the other member may not be running.
-const SPINS_BEFORE_YIELD: u32 = 4000;
+const SPINS_BEFORE_YIELD: u32 = 500;
 
 /// The meeting point of a team.
 struct Barrier {
