@@ -26,8 +26,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SolverKind {
-    /// Below [`AUTO_AMG_UNKNOWNS`] unknowns MIC(0)-CG in 2D and modified D-ILU-CG in 3D,
-    /// AMG-CG from there on.
+    /// Below [`AUTO_AMG_UNKNOWNS_2D`] unknowns MIC(0)-CG in 2D, below [`AUTO_AMG_UNKNOWNS`]
+    /// modified D-ILU-CG in 3D, AMG-CG from there on.
     Auto,
     /// Unpreconditioned conjugate gradient.
     Cg,
@@ -43,9 +43,13 @@ pub enum SolverKind {
     DiluCg,
 }
 
-/// PPE size (unknowns) from which `auto` picks AMG-CG over MIC(0)-CG and D-ILU-CG
-/// (docs/decisions.md, "Solver choice", "MIC(0)", "Modified D-ILU").
+/// PPE size (unknowns) from which `auto` picks AMG-CG over D-ILU-CG in 3D
+/// (docs/decisions.md, "Solver choice", "Modified D-ILU").
 pub const AUTO_AMG_UNKNOWNS: usize = 8000;
+
+/// PPE size (unknowns) from which `auto` picks AMG-CG over MIC(0)-CG in 2D
+/// (docs/decisions.md, "MIC(0) in the twisted numbering").
+pub const AUTO_AMG_UNKNOWNS_2D: usize = 12000;
 
 /// Relaxation of MIC(0): the share of the dropped fill moved to the diagonal
 /// (docs/decisions.md, "MIC(0)").
@@ -61,9 +65,13 @@ impl SolverKind {
     /// faster too, but not the default: "Neighbour lists kept").
     pub fn for_size(self, unknowns: usize, dimension: usize) -> SolverKind {
         match self {
-            SolverKind::Auto if unknowns >= AUTO_AMG_UNKNOWNS => SolverKind::AmgCg,
-            SolverKind::Auto if dimension == 3 => SolverKind::DiluCg,
-            SolverKind::Auto => SolverKind::Mic0Cg,
+            SolverKind::Auto if dimension == 3 && unknowns < AUTO_AMG_UNKNOWNS => {
+                SolverKind::DiluCg
+            }
+            SolverKind::Auto if dimension != 3 && unknowns < AUTO_AMG_UNKNOWNS_2D => {
+                SolverKind::Mic0Cg
+            }
+            SolverKind::Auto => SolverKind::AmgCg,
             k => k,
         }
     }
@@ -72,6 +80,18 @@ impl SolverKind {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::CsrMatrix;
+
+    #[test]
+    fn auto_takes_the_measured_solver_for_each_size() {
+        use super::SolverKind::*;
+        use super::{AUTO_AMG_UNKNOWNS, AUTO_AMG_UNKNOWNS_2D};
+        let pick = |n, d| Auto.for_size(n, d);
+        assert_eq!(pick(AUTO_AMG_UNKNOWNS_2D - 1, 2), Mic0Cg);
+        assert_eq!(pick(AUTO_AMG_UNKNOWNS_2D, 2), AmgCg);
+        assert_eq!(pick(AUTO_AMG_UNKNOWNS - 1, 3), DiluCg);
+        assert_eq!(pick(AUTO_AMG_UNKNOWNS, 3), AmgCg);
+        assert_eq!(Mic0Cg.for_size(10, 3), Mic0Cg);
+    }
 
     /// Five-point Laplacian on an `m x m` grid with Dirichlet boundaries.
     pub(crate) fn laplace_2d(m: usize) -> CsrMatrix {
