@@ -73,10 +73,36 @@ impl Drop for Guard<'_> {
     }
 }
 
-/// Runs `work` on a team of `size` members: on this thread alone for 1, else on the first
-/// `size` threads of the current rayon pool (at most its size), all at once.
+/// Whether a team is running in this process. Two teams broadcast into one pool at once
+/// could each hold one worker while waiting for the other's, so a second team runs on its
+/// calling thread alone (the results do not depend on the team's size).
+static TEAM_RUNNING: AtomicBool = AtomicBool::new(false);
+
+/// Releases [`TEAM_RUNNING`], also on unwinding.
+struct Running;
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        TEAM_RUNNING.store(false, Ordering::Release);
+    }
+}
+
+/// Runs `work` on a team of `size` members: on this thread alone for 1 or while another
+/// team runs, else on the first `size` threads of the current rayon pool (at most its
+/// size), all at once.
 pub fn run_team(size: usize, work: impl Fn(&Member) + Sync) {
-    let size = size.clamp(1, rayon::current_num_threads());
+    let mut size = size.clamp(1, rayon::current_num_threads());
+    let _running = match size > 1
+        && TEAM_RUNNING
+            .compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed)
+            .is_ok()
+    {
+        true => Some(Running),
+        false => {
+            size = 1;
+            None
+        }
+    };
     let barrier = Barrier {
         size,
         arrived: AtomicUsize::new(0),
@@ -190,6 +216,38 @@ mod tests {
         });
         assert_eq!(errors.load(Ordering::Relaxed), 0);
         assert_eq!(v, vec![2000.0, 2000.0]);
+    }
+
+    /// Teams started at once from many threads into one pool finish, each member meeting
+    /// its own team's at the barrier (a smoke test: the hang that [`TEAM_RUNNING`] rules
+    /// out needs two broadcasts queued in opposite orders on the two workers, which this
+    /// rarely produces).
+    #[test]
+    fn teams_started_at_once_do_not_wait_on_each_other() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let done = AtomicUsize::new(0);
+        std::thread::scope(|scope| {
+            for _ in 0..6 {
+                scope.spawn(|| {
+                    for _ in 0..200 {
+                        let sum = AtomicUsize::new(0);
+                        pool.install(|| {
+                            run_team(2, |m| {
+                                sum.fetch_add(m.index + 1, Ordering::Relaxed);
+                                m.wait();
+                                let all = if m.size == 2 { 3 } else { 1 };
+                                assert_eq!(sum.load(Ordering::Relaxed), all);
+                            })
+                        });
+                        done.fetch_add(1, Ordering::Relaxed);
+                    }
+                });
+            }
+        });
+        assert_eq!(done.load(Ordering::Relaxed), 1200);
     }
 
     #[test]
