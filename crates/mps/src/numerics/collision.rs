@@ -56,32 +56,7 @@ pub fn collide<const D: usize>(
                 *out = v.vel[i];
                 return 0;
             }
-            let mut u = v.vel[i];
-            let mut count = 0;
-            let mut hit_wall = false;
-            for q in v.pairs(i, dist) {
-                let en = q.xij / q.r;
-                let vn = (v.vel[q.j] - v.vel[i]).dot(&en);
-                if vn >= 0.0 {
-                    continue;
-                }
-                let share = if v.kind[q.j] == Kind::Fluid {
-                    v.density[q.j] / (v.density[i] + v.density[q.j])
-                } else {
-                    hit_wall = true;
-                    1.0
-                };
-                u += en * ((1.0 + e) * share * vn);
-                count += 1;
-            }
-            let near = wall_plane(i, v, WALL_REACH * l0, WALL_PLANE * l0, WALL_NEAR * l0);
-            if let Some(n) = near.filter(|_| !hit_wall) {
-                let vn = u.dot(&n);
-                if vn < 0.0 {
-                    u -= n * ((1.0 + e) * vn);
-                    count += 1;
-                }
-            }
+            let (u, count) = collide_one(i, v, (dist, e, l0));
             *out = u;
             count
         })
@@ -89,23 +64,75 @@ pub fn collide<const D: usize>(
     treated / 2
 }
 
+/// Fluid particle `i`'s velocity after the model and its number of treated pairs and planes.
+fn collide_one<const D: usize>(
+    i: usize,
+    v: &View<D>,
+    (dist, e, l0): (f64, f64, f64),
+) -> (Vector<D>, u64) {
+    let (reach, near) = (WALL_REACH * l0, WALL_NEAR * l0);
+    let mut u = v.vel[i];
+    let mut count = 0;
+    let mut hit_wall = false;
+    // One scan of the list for the pairs within `dist` and the wall plane's sums within
+    // `reach`, each radius tested as the pair loop tests it (the same pairs, the same values).
+    let mut sum = Vector::<D>::zero();
+    let mut nearest = f64::INFINITY;
+    let (far_pair, far_wall) = (dist * dist * (1.0 + 1e-9), reach * reach * (1.0 + 1e-9));
+    let far = far_pair.max(far_wall);
+    let xi = v.pos[i];
+    for &j in v.neighbors.for_radius(dist.max(reach)).of(i) {
+        let j = j as usize;
+        let xij = v.pos[j] - xi;
+        let r2 = xij.norm2();
+        if r2 > far {
+            continue;
+        }
+        let r = r2.sqrt();
+        if r2 <= far_pair && r > 0.0 && r < dist {
+            let en = xij / r;
+            let vn = (v.vel[j] - v.vel[i]).dot(&en);
+            if vn < 0.0 {
+                let share = if v.kind[j] == Kind::Fluid {
+                    v.density[j] / (v.density[i] + v.density[j])
+                } else {
+                    hit_wall = true;
+                    1.0
+                };
+                u += en * ((1.0 + e) * share * vn);
+                count += 1;
+            }
+        }
+        if r2 <= far_wall && r > 0.0 && r < reach && v.kind[j] != Kind::Fluid {
+            // xij = x_j - x_i: from i to the wall particle; weighted toward the nearest.
+            sum -= xij * (1.0 / (r * r));
+            nearest = nearest.min(r);
+        }
+    }
+    if !hit_wall {
+        if let Some(n) = wall_plane(i, v, (sum, nearest), reach, WALL_PLANE * l0, near) {
+            let vn = u.dot(&n);
+            if vn < 0.0 {
+                u -= n * ((1.0 + e) * vn);
+                count += 1;
+            }
+        }
+    }
+    (u, count)
+}
+
 /// The unit normal (into the fluid) of the wall plane that fluid particle `i` is closer to
-/// than `dist` (m), from its wall and dummy neighbours within `reach` (m); `None` when it
-/// has none, none nearer than `near` (m), or is farther.
+/// than `dist` (m), from the sums over its wall and dummy neighbours within `reach` (m) of
+/// `-x_ij / r^2` and of the nearest distance; `None` when it has none, none nearer than
+/// `near` (m), or is farther.
 fn wall_plane<const D: usize>(
     i: usize,
     v: &View<D>,
+    (sum, nearest): (Vector<D>, f64),
     reach: f64,
     dist: f64,
     near: f64,
 ) -> Option<Vector<D>> {
-    let mut sum = Vector::<D>::zero();
-    let mut nearest = f64::INFINITY;
-    for q in v.pairs(i, reach).filter(|q| v.kind[q.j] != Kind::Fluid) {
-        // xij = x_j - x_i: from i to the wall particle; weighted toward the nearest.
-        sum -= q.xij * (1.0 / (q.r * q.r));
-        nearest = nearest.min(q.r);
-    }
     let len = sum.norm();
     if nearest >= near || len == 0.0 {
         return None;

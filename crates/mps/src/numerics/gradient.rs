@@ -126,7 +126,8 @@ pub fn pressure_acceleration<const D: usize>(
     let c = correction_tensor(i, v, carries, k, g);
     let rho_i = v.density[i];
     let mut acc = Vector::zero();
-    for q in v.pairs(i, k.grad.re) {
+    let re = k.grad.re;
+    for q in v.pairs(i, re) {
         if !carries[q.j] {
             continue;
         }
@@ -135,7 +136,8 @@ pub fn pressure_acceleration<const D: usize>(
             GradientDensity::Own => rho_i,
         };
         let dp = pair_difference(g.model, p, ph, i, q.j);
-        acc += c.mul_vec(&q.xij) * (dp * q.w / (q.r2 * rho));
+        // w / r^2 = (re - r) / (r r^2): one division a pair instead of two.
+        acc += c.mul_vec(&q.xij) * (dp * (re - q.r) / (q.r * q.r2 * rho));
     }
     acc * (-1.0 / k.grad.n0)
 }

@@ -124,10 +124,17 @@ impl<const D: usize> Rows<'_, D> {
         let mut diag = s.compressibility / (self.dt * self.dt);
         let mut bi = source(i, v, k, &s.source, self.dt);
         let mut n_lap = 0.0;
+        // A neighbour of the particle's own density (all of them in one phase): the pair
+        // density is rho_i, a product instead of a division.
+        let coef_i = coef / rho_i;
         entries.clear();
         for q in v.pairs(i, k.lap.re) {
             n_lap += q.w;
-            let c = coef * q.w / s.pair_density(rho_i, v.density[q.j]);
+            let rho_j = v.density[q.j];
+            let c = match rho_j == rho_i {
+                true => coef_i * q.w,
+                false => coef * q.w / s.pair_density(rho_i, rho_j),
+            };
             match v.kind[q.j] {
                 Kind::Fluid | Kind::Wall => {
                     diag += c;
