@@ -82,7 +82,7 @@ impl Twisted {
 
 /// The first row `m` of the second part and the band's rows `s`: `m` about halves the rows
 /// outside the band; the band holds every second-part row coupled to the first part.
-fn split(a: &CsrMatrix) -> (usize, usize) {
+pub(crate) fn split(a: &CsrMatrix) -> (usize, usize) {
     let n = a.n();
     if n < SPLIT_FROM {
         return (n, 0);

@@ -285,7 +285,7 @@ impl PressureSolver {
                     report.setup = t0.elapsed();
                     let t = Instant::now();
                     let (a, b, w) = (&sys.matrix, &sys.rhs, &mut self.dilu_cg);
-                    let r = dilu_cg_in(a, b, x, &self.dilu, (tol, max_iter), w);
+                    let r = dilu_cg_in(a, b, x, &self.dilu, (tol, max_iter, MIC_TEAM), w);
                     (r, t.elapsed())
                 })
             }
