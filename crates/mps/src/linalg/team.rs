@@ -190,6 +190,7 @@ mod tests {
 
     /// Two members each fill their half, meet, and then each reads the other's half: every
     /// round sees the other's writes of that round (a broken barrier shows a stale value).
+    /// A team started while another test's team runs has one member: tried again then.
     #[test]
     fn members_see_each_others_writes_after_the_barrier() {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -199,21 +200,35 @@ mod tests {
         let mut v = vec![0.0; 2];
         let shared = Shared::new(&mut v);
         let errors = AtomicUsize::new(0);
-        pool.install(|| {
-            run_team(2, |m| {
-                for round in 1..=2000 {
-                    // SAFETY: each member writes its own entry between barriers.
-                    unsafe { shared.part(m.index..m.index + 1)[0] = round as f64 };
-                    m.wait();
-                    // SAFETY: nobody writes until the next barrier.
-                    let other = unsafe { shared.all()[1 - m.index] };
-                    if other != round as f64 {
-                        errors.fetch_add(1, Ordering::Relaxed);
+        let mut pairs = 0;
+        for _ in 0..2000 {
+            let size = AtomicUsize::new(0);
+            pool.install(|| {
+                run_team(2, |m| {
+                    size.store(m.size, Ordering::Relaxed);
+                    if m.size != 2 {
+                        return;
                     }
-                    m.wait();
-                }
-            })
-        });
+                    for round in 1..=2000 {
+                        // SAFETY: each member writes its own entry between barriers.
+                        unsafe { shared.part(m.index..m.index + 1)[0] = round as f64 };
+                        m.wait();
+                        // SAFETY: nobody writes until the next barrier.
+                        let other = unsafe { shared.all()[1 - m.index] };
+                        if other != round as f64 {
+                            errors.fetch_add(1, Ordering::Relaxed);
+                        }
+                        m.wait();
+                    }
+                })
+            });
+            if size.load(Ordering::Relaxed) == 2 {
+                pairs += 1;
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        assert_eq!(pairs, 1, "no team of two could start");
         assert_eq!(errors.load(Ordering::Relaxed), 0);
         assert_eq!(v, vec![2000.0, 2000.0]);
     }
