@@ -215,8 +215,14 @@ fn a_distributed_two_phase_run_records_its_groups_and_probes() {
 
 /// A water column spilling off a floor that ends at the domain's edge
 /// (`domain.outflow = "remove"`) on 2 processes: the same particles leave as in the serial
-/// run (89 by 0.16 s) and every output's energies, momenta and speeds agree within 1e-5 (the
-/// fastest spray particle is the loosest: 3e-6). Run with the surface treatment this check
+/// run (88 by 0.16 s) and every output's energies, momenta and speeds agree within 1e-5, but
+/// the speed of the fastest spray particle, within 1e-4: after the sheet breaks up (0.12 -
+/// 0.14 s) it amplifies the round-off of the solve, and serial runs whose every PPE is solved
+/// to the same 1e-12 by different preconditioners already differ in it at 0.16 s by 1.6e-7
+/// (MIC(0) / IC(0)) and 1.0e-5 (MIC(0) / D-ILU), while their kinetic energies agree to
+/// 3e-7; the run on 2 processes differs from the serial one by 3e-6 (MIC(0)) and 1.4e-5
+/// (D-ILU, `auto` since docs/decisions.md "Modified D-ILU in the twisted numbering").
+/// Run with the surface treatment this check
 /// was measured with (`mean-surface`, the paper's DS weighting): under the DS preset's
 /// default the distributed run departs from the serial one by 1e-5 at 0.08 s (the
 /// contact-line values of `edge-surface` are filled in each process's particle order;
@@ -261,7 +267,18 @@ fn a_distributed_run_removes_outflow_as_the_serial_run_does() {
     assert!(removed > 0.0, "particles left the serial run");
     for (a, b) in want.iter().zip(&got) {
         assert_eq!(a[k], b[k], "removed at t = {}", a[0]);
-        rows_agree(&header, a, b, 1e-5, "outflow on 2 processes");
+        let (spray, rest): (Vec<usize>, Vec<usize>) =
+            (0..header.len()).partition(|&k| header[k] == "max_speed");
+        let keep = |row: &[f64], ks: &[usize], k: usize| match ks.contains(&k) {
+            true => row[k],
+            false => 0.0,
+        };
+        let only = |row: &[f64], ks: &[usize]| -> Vec<f64> {
+            (0..row.len()).map(|k| keep(row, ks, k)).collect()
+        };
+        let what = "outflow on 2 processes";
+        rows_agree(&header, &only(a, &rest), &only(b, &rest), 1e-5, what);
+        rows_agree(&header, &only(a, &spray), &only(b, &spray), 1e-4, what);
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
