@@ -22,14 +22,10 @@
 
 use super::pcg::{converged, NotConverged, SolveStats};
 use super::sparse::{row_dot, CsrMatrix};
-use super::team::{run_team, Member, Shared};
+use super::team::{blocks_of, residual, rows_of, run_team, total, Member, Shared, BLOCK};
 use super::twisted::split;
 use std::ops::Range;
 use std::sync::Mutex;
-
-/// Rows per block of the team's passes; the dot products are summed block by block in
-/// block order, whatever the team's size.
-const BLOCK: usize = 256;
 
 /// A row's entries as two pieces of columns and values.
 type Pieces<'a> = [(&'a [u32], &'a [f64]); 2];
@@ -451,26 +447,6 @@ pub fn dilu_cg_in(
     result.into_inner().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Rows of blocks `blocks` of a system of `n` rows.
-fn rows_of(blocks: &Range<usize>, n: usize) -> Range<usize> {
-    (blocks.start * BLOCK).min(n)..(blocks.end * BLOCK).min(n)
-}
-
-/// Each of the blocks `mine`'s rows of a system of `n` rows, with the block's place.
-fn blocks_of(mine: &Range<usize>, n: usize) -> impl Iterator<Item = (usize, Range<usize>)> {
-    mine.clone()
-        .enumerate()
-        .map(move |(k, blk)| (k, rows_of(&(blk..blk + 1), n)))
-}
-
-/// The sum of a shared partial-sum vector, in block order.
-///
-/// # Safety
-/// Called between barriers, with every block written.
-unsafe fn total(parts: Shared) -> f64 {
-    parts.all().iter().sum()
-}
-
 /// One member's part of [`dilu_cg_in`] (the algorithm of the module docs); every member
 /// computes the same scalars and takes the same branches.
 ///
@@ -491,7 +467,9 @@ fn member_cg(
     let own = rows_of(&mine, n);
     let [s0, s1] = v.parts;
     // r = b - A x, with |b|^2 and |r|^2.
-    residual(a, b, v, &mine, true);
+    // SAFETY (here and below): x is not written meanwhile; r's rows and the sums' blocks
+    // are this member's.
+    unsafe { residual(a, b, (v.x, v.r), (Some(s0), s1), &mine) };
     t.wait();
     let bnorm = unsafe { total(s0) }.sqrt();
     let mut rnorm = unsafe { total(s1) }.sqrt();
@@ -539,7 +517,7 @@ fn member_cg(
         }
         if rz_new.sqrt() <= target {
             backward(t, a, m, v.y.ptr(), v.x.ptr());
-            residual(a, b, v, &mine, false);
+            unsafe { residual(a, b, (v.x, v.r), (None, s1), &mine) };
             t.wait();
             rnorm = unsafe { total(s1) }.sqrt();
             if rnorm <= goal {
@@ -559,35 +537,10 @@ fn member_cg(
         t.wait();
     }
     backward(t, a, m, v.y.ptr(), v.x.ptr());
-    residual(a, b, v, &mine, false);
+    unsafe { residual(a, b, (v.x, v.r), (None, s1), &mine) };
     t.wait();
     rnorm = unsafe { total(s1) }.sqrt();
     Err(NotConverged::at(max_iter, rnorm / bnorm))
-}
-
-/// `r = b - A x` on the own rows of blocks `mine`, `r . r` in the second partial sums and,
-/// with `with_b`, `b . b` in the first.
-fn residual(a: &CsrMatrix, b: &[f64], v: Vectors, mine: &Range<usize>, with_b: bool) {
-    let n = b.len();
-    let own = rows_of(mine, n);
-    let xs = unsafe { v.x.all() };
-    let r = unsafe { v.r.part(own.clone()) };
-    let bb_own = unsafe { v.parts[0].part(mine.clone()) };
-    let rr_own = unsafe { v.parts[1].part(mine.clone()) };
-    for (k, rows) in blocks_of(mine, n) {
-        let (mut bb, mut rr) = (0.0, 0.0);
-        for i in rows {
-            let (c, w) = a.row(i);
-            let ri = b[i] - row_dot(c, w, xs);
-            r[i - own.start] = ri;
-            bb += b[i] * b[i];
-            rr += ri * ri;
-        }
-        if with_b {
-            bb_own[k] = bb;
-        }
-        rr_own[k] = rr;
-    }
 }
 
 /// With `step`, `y += alpha p` and `r^ -= alpha q` first; then `z = D r^` on the own rows

@@ -3,6 +3,7 @@
 //! twisted numbering"). A CG iteration of a few thousand unknowns lasts about 100 us: a
 //! worker woken for each of its passes sleeps between them and costs more than it brings.
 
+use super::sparse::{row_dot, CsrMatrix};
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -181,6 +182,68 @@ impl Shared {
     /// True when empty.
     pub fn is_empty(&self) -> bool {
         self.len == 0
+    }
+}
+
+/// Rows per block of a team's passes; dot products are summed block by block in block
+/// order, whatever the team's size, so every team gives the same sums.
+pub(crate) const BLOCK: usize = 256;
+
+/// Rows of blocks `blocks` of a system of `n` rows.
+pub(crate) fn rows_of(blocks: &Range<usize>, n: usize) -> Range<usize> {
+    (blocks.start * BLOCK).min(n)..(blocks.end * BLOCK).min(n)
+}
+
+/// Each of the blocks `mine`'s rows of a system of `n` rows, with the block's place.
+pub(crate) fn blocks_of(
+    mine: &Range<usize>,
+    n: usize,
+) -> impl Iterator<Item = (usize, Range<usize>)> {
+    mine.clone()
+        .enumerate()
+        .map(move |(k, blk)| (k, rows_of(&(blk..blk + 1), n)))
+}
+
+/// The sum of a shared partial-sum vector, in block order.
+///
+/// # Safety
+/// Called between barriers, with every block written.
+pub(crate) unsafe fn total(parts: Shared) -> f64 {
+    parts.all().iter().sum()
+}
+
+/// `r = b - A x` on the own rows of blocks `mine`, `r . r` in the blocks' partial sums
+/// `rr` and, with `bb`, `b . b` in those.
+///
+/// # Safety
+/// No member writes `x` meanwhile, and the own rows of `r` and own blocks of the sums are
+/// this member's alone until the next barrier.
+pub(crate) unsafe fn residual(
+    a: &CsrMatrix,
+    b: &[f64],
+    (x, r): (Shared, Shared),
+    (bb, rr): (Option<Shared>, Shared),
+    mine: &Range<usize>,
+) {
+    let n = b.len();
+    let own = rows_of(mine, n);
+    let xs = x.all();
+    let r = r.part(own.clone());
+    let mut bb_own = bb.as_ref().map(|s| s.part(mine.clone()));
+    let rr_own = rr.part(mine.clone());
+    for (k, rows) in blocks_of(mine, n) {
+        let (mut bsum, mut rsum) = (0.0, 0.0);
+        for i in rows {
+            let (c, w) = a.row(i);
+            let ri = b[i] - row_dot(c, w, xs);
+            r[i - own.start] = ri;
+            bsum += b[i] * b[i];
+            rsum += ri * ri;
+        }
+        if let Some(bb) = bb_own.as_mut() {
+            bb[k] = bsum;
+        }
+        rr_own[k] = rsum;
     }
 }
 

@@ -13,13 +13,9 @@
 use super::ic0::{lower_triangle_twisted_into, Ic0, Mic0Scratch, NEW_ROW};
 use super::pcg::{converged, NotConverged, SolveStats};
 use super::sparse::{row_dot, CsrMatrix};
-use super::team::{run_team, Member, Shared};
+use super::team::{blocks_of, residual, rows_of, run_team, total, Member, Shared, BLOCK};
 use std::ops::Range;
 use std::sync::Mutex;
-
-/// Rows per block of the team's passes; the dot products are summed block by block in
-/// block order, whatever the team's size.
-const BLOCK: usize = 256;
 
 /// Below this many rows the system is not split (one part, no band).
 const SPLIT_FROM: usize = 64;
@@ -196,19 +192,6 @@ pub fn twisted_cg_in(
     result.into_inner().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Rows of blocks `blocks` of a system of `n` rows.
-fn rows_of(blocks: &Range<usize>, n: usize) -> Range<usize> {
-    (blocks.start * BLOCK).min(n)..(blocks.end * BLOCK).min(n)
-}
-
-/// The sum of a shared partial-sum vector, in block order.
-///
-/// # Safety
-/// Called between barriers, with every block written.
-unsafe fn total(parts: Shared) -> f64 {
-    parts.all().iter().sum()
-}
-
 /// One member's part of [`twisted_cg_in`]; every member computes the same scalars and
 /// takes the same branches.
 ///
@@ -227,7 +210,8 @@ fn member_cg(
     let mine = m.share(n.div_ceil(BLOCK));
     let own = rows_of(&mine, n);
     let [pq_parts, rr_parts, rz_parts] = v.parts;
-    initial_residual(a, b, v, &mine);
+    // SAFETY: x is not written here; r's rows and the sums' blocks are this member's.
+    unsafe { residual(a, b, (v.x, v.r), (Some(pq_parts), rr_parts), &mine) };
     m.wait();
     let bnorm = unsafe { total(pq_parts) }.sqrt();
     let mut rnorm = unsafe { total(rr_parts) }.sqrt();
@@ -270,35 +254,6 @@ fn member_cg(
         m.wait();
     }
     Err(NotConverged::at(max_iter, rnorm / bnorm))
-}
-
-/// Each of the blocks `mine`'s rows of a system of `n` rows, with the block's place.
-fn blocks_of(mine: &Range<usize>, n: usize) -> impl Iterator<Item = (usize, Range<usize>)> {
-    mine.clone()
-        .enumerate()
-        .map(move |(k, blk)| (k, rows_of(&(blk..blk + 1), n)))
-}
-
-/// `r = b - A x` on the own rows of blocks `mine`, with `b . b` (in the first partial sums)
-/// and `r . r` (in the second).
-fn initial_residual(a: &CsrMatrix, b: &[f64], v: Vectors, mine: &Range<usize>) {
-    let n = b.len();
-    let own = rows_of(mine, n);
-    let xs = unsafe { v.x.all() };
-    let r = unsafe { v.r.part(own.clone()) };
-    let bb_own = unsafe { v.parts[0].part(mine.clone()) };
-    let rr_own = unsafe { v.parts[1].part(mine.clone()) };
-    for (k, rows) in blocks_of(mine, n) {
-        let (mut bb, mut rr) = (0.0, 0.0);
-        for i in rows {
-            let (c, w) = a.row(i);
-            let ri = b[i] - row_dot(c, w, xs);
-            r[i - own.start] = ri;
-            bb += b[i] * b[i];
-            rr += ri * ri;
-        }
-        (bb_own[k], rr_own[k]) = (bb, rr);
-    }
 }
 
 /// `q = A p` on the own rows of blocks `mine`, with `p . q` in the first partial sums.
