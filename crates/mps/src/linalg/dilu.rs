@@ -25,6 +25,7 @@ use super::sparse::{row_dot, CsrMatrix};
 use super::team::{blocks_of, residual, rows_of, run_team, total, Member, Shared, BLOCK};
 use super::twisted::split;
 use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// A row's entries as two pieces of columns and values.
@@ -66,61 +67,84 @@ impl Dilu {
     /// [`Dilu::new`] in this preconditioner's memory; false (unusable) where `new` gives
     /// `None`.
     pub fn rebuild(&mut self, a: &CsrMatrix, omega: f64) -> bool {
+        self.rebuild_on(a, omega, 1)
+    }
+
+    /// [`Dilu::rebuild`] on a team of up to `team` threads, with the same pivots for any
+    /// team: the rows' positions and sums split by blocks, the two parts' pivots at once,
+    /// then the band's.
+    pub fn rebuild_on(&mut self, a: &CsrMatrix, omega: f64, team: usize) -> bool {
         let n = a.n();
         (self.m, self.s) = split(a);
         for v in [&mut self.diag_pos, &mut self.mid_pos] {
             v.clear();
             v.resize(n, 0);
         }
-        for v in [&mut self.d, &mut self.inv_d, &mut self.upper_sum] {
+        for v in [
+            &mut self.d,
+            &mut self.inv_d,
+            &mut self.k,
+            &mut self.upper_sum,
+        ] {
             v.clear();
             v.resize(n, 0.0);
         }
-        for i in 0..n {
-            let (start, end) = (a.row_ptr[i] as usize, a.row_ptr[i + 1] as usize);
-            let p = start + a.col[start..end].partition_point(|&c| (c as usize) < i);
-            if p == end || a.col[p] as usize != i {
-                return false;
-            }
-            self.diag_pos[i] = p as u32;
-            self.mid_pos[i] = match i < self.m {
-                true => p as u32,
-                false => {
-                    (start + a.col[start..p].partition_point(|&c| (c as usize) < self.m)) as u32
-                }
-            };
-            let [(_, x), (_, y)] = self.upper(a, i);
-            self.upper_sum[i] = x.iter().sum::<f64>() + y.iter().sum::<f64>();
-        }
         let [first, second, band] = self.forward_order();
-        let rows = first.chain(second.rev()).chain(band.rev());
-        for i in rows {
-            if !self.pivot(a, i, omega) {
-                return false;
+        let m = self.m;
+        let v = self.shared();
+        // One flag per phase, each read only after the barrier that ends its phase.
+        let (placed, pivoted) = (AtomicBool::new(true), AtomicBool::new(true));
+        let blocks = n.div_ceil(BLOCK);
+        let team = if n < 2 * BLOCK { 1 } else { team };
+        run_team(team, |t| {
+            let own = rows_of(&t.share(blocks), n);
+            // SAFETY (every access through `v` here): a member writes only its own rows
+            // between barriers, or the rows of its part of the pivots, and reads other
+            // members' rows only after the barrier that ends their writing.
+            unsafe {
+                if !own.clone().all(|i| v.place(a, m, i)) {
+                    placed.store(false, Ordering::Relaxed);
+                }
+                t.wait();
+                if !placed.load(Ordering::Relaxed) {
+                    return;
+                }
+                let mut ok = true;
+                if t.index == 0 {
+                    ok &= first.clone().all(|i| v.pivot(a, m, i, omega));
+                }
+                if t.index == 1 || t.size == 1 {
+                    ok &= second.clone().rev().all(|i| v.pivot(a, m, i, omega));
+                }
+                t.wait();
+                if t.index == 0 && ok {
+                    ok &= band.clone().rev().all(|i| v.pivot(a, m, i, omega));
+                }
+                if !ok {
+                    pivoted.store(false, Ordering::Relaxed);
+                }
+                t.wait();
+                if !pivoted.load(Ordering::Relaxed) {
+                    return;
+                }
+                for i in own {
+                    v.k.set(i, 2.0 * v.d.get(i) - a.val[v.diag_pos.get(i) as usize]);
+                }
             }
-        }
-        self.k.clear();
-        let (d, diag_pos) = (&self.d, &self.diag_pos);
-        self.k
-            .extend((0..n).map(|i| 2.0 * d[i] - a.val[diag_pos[i] as usize]));
-        true
+        });
+        placed.into_inner() && pivoted.into_inner()
     }
 
-    /// Row `i`'s pivot from those of the rows before it; false where it is not positive.
-    fn pivot(&mut self, a: &CsrMatrix, i: usize, omega: f64) -> bool {
-        let mut di = a.val[self.diag_pos[i] as usize];
-        for (c, x) in self.lower(a, i) {
-            for (&j, &aij) in c.iter().zip(x) {
-                let j = j as usize;
-                di -= aij * self.inv_d[j] * (aij + omega * (self.upper_sum[j] - aij));
-            }
+    /// The set-up's vectors for a team (valid while they are not resized).
+    fn shared(&mut self) -> SetUp {
+        SetUp {
+            diag_pos: Shared::new(&mut self.diag_pos),
+            mid_pos: Shared::new(&mut self.mid_pos),
+            d: Shared::new(&mut self.d),
+            inv_d: Shared::new(&mut self.inv_d),
+            k: Shared::new(&mut self.k),
+            upper_sum: Shared::new(&mut self.upper_sum),
         }
-        if !(di > 0.0) || !di.is_finite() {
-            return false;
-        }
-        self.d[i] = di;
-        self.inv_d[i] = 1.0 / di;
-        true
     }
 
     /// The rows of the first part, the second part's far rows and the band, each range in
@@ -132,31 +156,18 @@ impl Dilu {
         [0..self.m, self.m + self.s..n, self.m..self.m + self.s]
     }
 
-    /// The part of row `i` of `a` before it in the numbering (columns ascending in each
-    /// piece): columns below `i` in the first part; in the second, those of the first part
-    /// and those above `i`.
-    #[inline(always)]
+    /// The part of row `i` of `a` before it in the numbering ([`lower_of`]).
+    #[cfg(test)]
     fn lower<'a>(&self, a: &'a CsrMatrix, i: usize) -> Pieces<'a> {
-        let (s, mid) = (a.row_ptr[i] as usize, self.mid_pos[i] as usize);
-        let (p, e) = (self.diag_pos[i] as usize, a.row_ptr[i + 1] as usize);
-        let e = if i < self.m { p + 1 } else { e };
-        [
-            (&a.col[s..mid], &a.val[s..mid]),
-            (&a.col[p + 1..e], &a.val[p + 1..e]),
-        ]
+        let (mid, p) = (self.mid_pos[i] as usize, self.diag_pos[i] as usize);
+        lower_of(a, self.m, i, (mid, p))
     }
 
-    /// The part of row `i` of `a` after it in the numbering: columns above `i` in the first
-    /// part; in the second, those of the second part below `i`.
+    /// The part of row `i` of `a` after it in the numbering ([`upper_of`]).
     #[inline(always)]
     fn upper<'a>(&self, a: &'a CsrMatrix, i: usize) -> Pieces<'a> {
         let (mid, p) = (self.mid_pos[i] as usize, self.diag_pos[i] as usize);
-        let e = a.row_ptr[i + 1] as usize;
-        let e = if i < self.m { e } else { p + 1 };
-        [
-            (&a.col[mid..p], &a.val[mid..p]),
-            (&a.col[p + 1..e], &a.val[p + 1..e]),
-        ]
+        upper_of(a, self.m, i, (mid, p))
     }
 
     /// `u_i = (v(i) - L_i u) / d_i` over rows `rows`, all of one part, in the order the
@@ -287,6 +298,93 @@ impl Dilu {
         for (qi, wi) in q.iter_mut().zip(w.iter()) {
             *qi += wi;
         }
+    }
+}
+
+/// The part of row `i` of `a` before it in the twisted numbering whose second part starts
+/// at row `m` (columns ascending in each piece), the row's first column of the second part
+/// and its diagonal at positions `mid` and `p`: columns below `i` in the first part; in the
+/// second, those of the first part and those above `i`.
+#[inline(always)]
+fn lower_of(a: &CsrMatrix, m: usize, i: usize, (mid, p): (usize, usize)) -> Pieces<'_> {
+    let (s, e) = (a.row_ptr[i] as usize, a.row_ptr[i + 1] as usize);
+    let e = if i < m { p + 1 } else { e };
+    [
+        (&a.col[s..mid], &a.val[s..mid]),
+        (&a.col[p + 1..e], &a.val[p + 1..e]),
+    ]
+}
+
+/// The part of row `i` of `a` after it in the numbering (as [`lower_of`]): columns above
+/// `i` in the first part; in the second, those of the second part below `i`.
+#[inline(always)]
+fn upper_of(a: &CsrMatrix, m: usize, i: usize, (mid, p): (usize, usize)) -> Pieces<'_> {
+    let e = a.row_ptr[i + 1] as usize;
+    let e = if i < m { e } else { p + 1 };
+    [
+        (&a.col[mid..p], &a.val[mid..p]),
+        (&a.col[p + 1..e], &a.val[p + 1..e]),
+    ]
+}
+
+/// The set-up's vectors, shared by the members of its team.
+#[derive(Clone, Copy)]
+struct SetUp {
+    diag_pos: Shared<u32>,
+    mid_pos: Shared<u32>,
+    d: Shared,
+    inv_d: Shared,
+    k: Shared,
+    upper_sum: Shared,
+}
+
+impl SetUp {
+    /// Row `i`'s diagonal position, first column of the second part and sum after it in
+    /// the numbering; false where the row lacks its diagonal.
+    ///
+    /// # Safety
+    /// No other thread touches row `i`'s entries meanwhile.
+    unsafe fn place(&self, a: &CsrMatrix, m: usize, i: usize) -> bool {
+        let (start, end) = (a.row_ptr[i] as usize, a.row_ptr[i + 1] as usize);
+        let p = start + a.col[start..end].partition_point(|&c| (c as usize) < i);
+        if p == end || a.col[p] as usize != i {
+            return false;
+        }
+        let mid = match i < m {
+            true => p,
+            false => start + a.col[start..p].partition_point(|&c| (c as usize) < m),
+        };
+        let [(_, x), (_, y)] = upper_of(a, m, i, (mid, p));
+        self.diag_pos.set(i, p as u32);
+        self.mid_pos.set(i, mid as u32);
+        self.upper_sum
+            .set(i, x.iter().sum::<f64>() + y.iter().sum::<f64>());
+        true
+    }
+
+    /// Row `i`'s pivot from those of the rows before it in the numbering; false where it
+    /// is not positive.
+    ///
+    /// # Safety
+    /// Every row's place is set; no other thread writes row `i` or the rows before it, or
+    /// reads row `i`, meanwhile.
+    unsafe fn pivot(&self, a: &CsrMatrix, m: usize, i: usize, omega: f64) -> bool {
+        let p = self.diag_pos.get(i) as usize;
+        let mid = self.mid_pos.get(i) as usize;
+        let mut di = a.val[p];
+        for (c, x) in lower_of(a, m, i, (mid, p)) {
+            for (&j, &aij) in c.iter().zip(x) {
+                let j = j as usize;
+                let sj = self.upper_sum.get(j);
+                di -= aij * self.inv_d.get(j) * (aij + omega * (sj - aij));
+            }
+        }
+        if !(di > 0.0) || !di.is_finite() {
+            return false;
+        }
+        self.d.set(i, di);
+        self.inv_d.set(i, 1.0 / di);
+        true
     }
 }
 
@@ -772,8 +870,10 @@ mod tests {
             let [(_, x), (_, y)] = p.upper(a, i);
             p.upper_sum[i] = x.iter().sum::<f64>() + y.iter().sum::<f64>();
         }
+        let v = p.shared();
         for i in 0..n {
-            assert!(p.pivot(a, i, omega));
+            // SAFETY: one thread, every row placed.
+            assert!(unsafe { v.pivot(a, n, i, omega) });
         }
         p.k = (0..n).map(|i| 2.0 * p.d[i] - a.get(i, i)).collect();
         p
@@ -809,8 +909,15 @@ mod tests {
             });
             (x, st.iterations)
         };
+        // The set-up on a team of two gives the pivots bit for bit (started when no other
+        // test's team holds the pool).
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build();
+        let mut m2 = Dilu::default();
+        crate::linalg::team::wait_for_no_team();
+        assert!(pool.unwrap().install(|| m2.rebuild_on(&a, 0.99, 2)));
+        assert!(m2.d == m.d && m2.k == m.k && m2.upper_sum == m.upper_sum);
         let (x1, it1) = solve(1, &m);
-        let (x2, it2) = solve(2, &m);
+        let (x2, it2) = solve(2, &m2);
         let (_, it_plain) = solve(1, &plain(&a, 0.99));
         eprintln!("band {} of {n}: twisted {it1}, plain {it_plain}", m.s);
         assert_eq!(it1, it2);

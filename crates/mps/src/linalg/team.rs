@@ -79,6 +79,18 @@ impl Drop for Guard<'_> {
 /// calling thread alone (the results do not depend on the team's size).
 static TEAM_RUNNING: AtomicBool = AtomicBool::new(false);
 
+/// Waits (up to a second) until no team runs in this process, so that a test's next team
+/// is likely to get its members.
+#[cfg(test)]
+pub(crate) fn wait_for_no_team() {
+    for _ in 0..1000 {
+        if !TEAM_RUNNING.load(Ordering::Acquire) {
+            return;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+}
+
 /// Releases [`TEAM_RUNNING`], also on unwinding.
 struct Running;
 
@@ -130,21 +142,28 @@ pub fn run_team(size: usize, work: impl Fn(&Member) + Sync) {
 
 /// A vector the members of a team share: each writes only where no other member reads or
 /// writes until the next barrier.
-#[derive(Clone, Copy)]
-pub struct Shared {
-    ptr: *mut f64,
+pub struct Shared<T = f64> {
+    ptr: *mut T,
     len: usize,
 }
 
+impl<T> Clone for Shared<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for Shared<T> {}
+
 // SAFETY: members touch disjoint parts between barriers (the callers' contract), and the
 // barrier orders their accesses.
-unsafe impl Send for Shared {}
+unsafe impl<T: Send> Send for Shared<T> {}
 // SAFETY: as above.
-unsafe impl Sync for Shared {}
+unsafe impl<T: Send> Sync for Shared<T> {}
 
-impl Shared {
+impl<T> Shared<T> {
     /// Shares `v` for the lifetime of the borrow the caller keeps.
-    pub fn new(v: &mut [f64]) -> Shared {
+    pub fn new(v: &mut [T]) -> Shared<T> {
         Shared {
             ptr: v.as_mut_ptr(),
             len: v.len(),
@@ -156,7 +175,7 @@ impl Shared {
     /// # Safety
     /// No other member touches `r` until the next barrier, and the vector outlives the use.
     #[allow(clippy::mut_from_ref)]
-    pub unsafe fn part(&self, r: Range<usize>) -> &mut [f64] {
+    pub unsafe fn part(&self, r: Range<usize>) -> &mut [T] {
         assert!(r.start <= r.end && r.end <= self.len);
         std::slice::from_raw_parts_mut(self.ptr.add(r.start), r.end - r.start)
     }
@@ -165,12 +184,33 @@ impl Shared {
     ///
     /// # Safety
     /// No member writes it until the next barrier.
-    pub unsafe fn all(&self) -> &[f64] {
+    pub unsafe fn all(&self) -> &[T] {
         std::slice::from_raw_parts(self.ptr, self.len)
     }
 
+    /// Entry `i`.
+    ///
+    /// # Safety
+    /// No member writes entry `i` meanwhile.
+    pub unsafe fn get(&self, i: usize) -> T
+    where
+        T: Copy,
+    {
+        assert!(i < self.len);
+        *self.ptr.add(i)
+    }
+
+    /// Sets entry `i` to `x`.
+    ///
+    /// # Safety
+    /// No other member reads or writes entry `i` until the next barrier.
+    pub unsafe fn set(&self, i: usize, x: T) {
+        assert!(i < self.len);
+        *self.ptr.add(i) = x;
+    }
+
     /// The raw pointer, for passes whose members write disjoint scattered entries.
-    pub fn ptr(&self) -> *mut f64 {
+    pub fn ptr(&self) -> *mut T {
         self.ptr
     }
 

@@ -280,7 +280,8 @@ impl PressureSolver {
             SolverKind::DiluCg => {
                 // Set up in the last preconditioner's memory.
                 let m = &mut self.dilu;
-                let ok = m.rebuild(&sys.matrix, DILU_OMEGA) || m.rebuild(&sys.matrix, 0.0);
+                let (a, team) = (&sys.matrix, MIC_TEAM);
+                let ok = m.rebuild_on(a, DILU_OMEGA, team) || m.rebuild_on(a, 0.0, team);
                 ok.then(|| {
                     report.setup = t0.elapsed();
                     let t = Instant::now();
