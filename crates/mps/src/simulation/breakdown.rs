@@ -167,16 +167,31 @@ pub fn check_state<const D: usize>(
 ) -> Result<f64, Failure> {
     let n = pos.len();
     let finite = |i: usize| pos[i].is_finite() && vel[i].is_finite() && pressure[i].is_finite();
-    if !(0..n).into_par_iter().all(finite) {
+    let outside = |i: usize| {
+        p.kind[i] == Kind::Fluid && (0..D).any(|k| pos[i][k] < lim.lo[k] || pos[i][k] > lim.hi[k])
+    };
+    // One pass: whether every entry is finite, whether a fluid particle left the box, and
+    // the largest fluid speed (each a breakdown reason, tested in this order below).
+    let (all_finite, any_outside, umax) = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let u = match p.kind[i] == Kind::Fluid {
+                true => vel[i].norm(),
+                false => 0.0,
+            };
+            (finite(i), outside(i), u)
+        })
+        .reduce(
+            || (true, false, 0.0),
+            |a, b| (a.0 && b.0, a.1 || b.1, f64::max(a.2, b.2)),
+        );
+    if !all_finite {
         return Err(Failure {
             reason: BreakdownReason::NotFinite,
             particles: first_matching(p, n, |i| !finite(i)),
         });
     }
-    let outside = |i: usize| {
-        p.kind[i] == Kind::Fluid && (0..D).any(|k| pos[i][k] < lim.lo[k] || pos[i][k] > lim.hi[k])
-    };
-    if !lim.outflow && (0..n).into_par_iter().any(outside) {
+    if !lim.outflow && any_outside {
         return Err(Failure {
             reason: BreakdownReason::LeftDomain,
             particles: first_matching(p, n, outside),
@@ -188,11 +203,6 @@ pub fn check_state<const D: usize>(
         }
         .into());
     }
-    let umax = (0..n)
-        .into_par_iter()
-        .filter(|&i| p.kind[i] == Kind::Fluid)
-        .map(|i| vel[i].norm())
-        .reduce(|| 0.0, f64::max);
     if umax > lim.max_speed {
         let bound = lim.max_speed;
         return Err(Failure {

@@ -209,19 +209,30 @@ impl<const D: usize> Simulation<D> {
     /// Rebuilds the neighbour lists at `r*` when a particle lies more than half the skin from
     /// where they were built.
     pub(super) fn keep_neighbors_valid(&mut self, pred: &Predicted<D>) -> Result<(), Failure> {
-        let old = &self.particles.position;
-        let max_move = (0..pred.pos.len())
+        let (old, built) = (&self.particles.position, &self.lists_built_at);
+        // On one process the lists may date from an earlier step (`update_neighbors`): the
+        // largest moves since this step's start and since the lists, in one pass.
+        let since_lists = !self.is_distributed() && built.len() == old.len();
+        let (max_move, since) = (0..pred.pos.len())
             .into_par_iter()
-            .map(|i| (pred.pos[i] - old[i]).norm())
-            .reduce(|| 0.0, f64::max);
+            .map(|i| {
+                let x = pred.pos[i];
+                let b = if since_lists {
+                    (x - built[i]).norm2()
+                } else {
+                    0.0
+                };
+                ((x - old[i]).norm(), b)
+            })
+            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         let max_move = self.max(max_move);
         if !max_move.is_finite() {
             return Err(BreakdownReason::NotFinite.into());
         }
-        // On one process the lists may date from an earlier step (`update_neighbors`).
-        let moved = match self.is_distributed() {
-            true => max_move,
-            false => self.moved_since_lists(&pred.pos),
+        let moved = match (self.is_distributed(), since_lists) {
+            (true, _) => max_move,
+            (false, true) => since.sqrt(),
+            (false, false) => f64::INFINITY,
         };
         if 2.0 * moved > self.skin {
             self.timed(Stage::Neighbors, |s| s.renew_neighbors(&pred.pos));
