@@ -77,7 +77,7 @@ pub fn p_hat<const D: usize>(i: usize, v: &View<D>, p: &[f64], carries: &[bool],
 }
 
 /// Pressure difference (Pa) of one pair term by the model.
-#[inline]
+#[inline(always)]
 fn pair_difference(model: GradientModel, p: &[f64], ph: &[f64], i: usize, j: usize) -> f64 {
     match model {
         // Paper Eq. 1: p_j - p_hat_i, every pair repels.
@@ -125,7 +125,8 @@ pub fn pressure_acceleration<const D: usize>(
 ) -> Vector<D> {
     let c = correction_tensor(i, v, carries, k, g);
     let rho_i = v.density[i];
-    let mut acc = Vector::zero();
+    // sum_j C_i r_ij s_ij = C_i sum_j r_ij s_ij: the tensor applied once, after the sum.
+    let mut sum = Vector::zero();
     let re = k.grad.re;
     for q in v.pairs(i, re) {
         if !carries[q.j] {
@@ -137,9 +138,9 @@ pub fn pressure_acceleration<const D: usize>(
         };
         let dp = pair_difference(g.model, p, ph, i, q.j);
         // w / r^2 = (re - r) / (r r^2): one division a pair instead of two.
-        acc += c.mul_vec(&q.xij) * (dp * (re - q.r) / (q.r * q.r2 * rho));
+        sum += q.xij * (dp * (re - q.r) / (q.r * q.r2 * rho));
     }
-    acc * (-1.0 / k.grad.n0)
+    c.mul_vec(&sum) * (-1.0 / k.grad.n0)
 }
 
 #[cfg(test)]
