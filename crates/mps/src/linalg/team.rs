@@ -7,9 +7,10 @@ use super::sparse::{row_dot, CsrMatrix};
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// Spins of a waiting member before it yields its core (some microseconds): on a loaded
-/// machine the other member may not be running.
-const SPINS_BEFORE_YIELD: u32 = 500;
+/// Spins of a waiting member before it yields its core (about 0.1 ms on the 2-core test
+/// machine; a yield costs 1 us of system time there): on a loaded machine the other
+/// member may not be running.
+const SPINS_BEFORE_YIELD: u32 = 4000;
 
 /// The meeting point of a team.
 struct Barrier {
@@ -91,12 +92,78 @@ pub(crate) fn wait_for_no_team() {
     }
 }
 
-/// Releases [`TEAM_RUNNING`], also on unwinding.
-struct Running;
+/// Idle rounds of a helper ([`with_helper`]) between two yields of its core (a few
+/// milliseconds).
+const HELPER_SPINS: u32 = 20_000;
 
-impl Drop for Running {
+/// Sets its flag when dropped (also on unwinding).
+struct SetOnDrop<'a>(&'a AtomicBool);
+
+impl Drop for SetOnDrop<'_> {
     fn drop(&mut self) {
-        TEAM_RUNNING.store(false, Ordering::Release);
+        self.0.store(true, Ordering::Release);
+    }
+}
+
+/// Clears its flag when dropped (also on unwinding): a team or helper no longer runs.
+struct Released<'a>(&'a AtomicBool);
+
+impl Drop for Released<'_> {
+    fn drop(&mut self) {
+        self.0.store(false, Ordering::Release);
+    }
+}
+
+/// Whether a helper ([`with_helper`]) runs in this process. One at a time: a worker that
+/// took a second work's helper while a piece of its own work waited below it on its stack
+/// would wait for that work forever.
+static HELPER_RUNNING: AtomicBool = AtomicBool::new(false);
+
+/// Runs `work` on this worker of the pool while another worker waits for its parallel
+/// loops' pieces in a spin loop, taking each as it appears, instead of going idle between
+/// them (where the pool's idle loop makes a system call per round: docs/decisions.md,
+/// "A helper for the step"). On one thread, outside a pool, or while another helper runs,
+/// `work` alone.
+///
+/// The helper is the first job `work`'s worker pushes, so it is stolen before any piece of
+/// `work` can be: no worker holds a piece of `work` below the helper on its stack.
+pub fn with_helper<R: Send>(work: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_num_threads() < 2
+        || rayon::current_thread_index().is_none()
+        || HELPER_RUNNING
+            .compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed)
+            .is_err()
+    {
+        return work();
+    }
+    let _running = Released(&HELPER_RUNNING);
+    let done = AtomicBool::new(false);
+    let (result, ()) = rayon::join(
+        || {
+            let _done = SetOnDrop(&done);
+            work()
+        },
+        || help_until(&done),
+    );
+    result
+}
+
+/// Takes the pool's pending jobs (the other worker's pieces, a team's broadcast) until
+/// `done`, spinning between them and yielding the core only now and then.
+fn help_until(done: &AtomicBool) {
+    let mut idle = 0u32;
+    while !done.load(Ordering::Acquire) {
+        match rayon::yield_now() {
+            Some(rayon::Yield::Executed) => idle = 0,
+            _ => {
+                idle += 1;
+                if idle.is_multiple_of(HELPER_SPINS) {
+                    std::thread::yield_now();
+                } else {
+                    std::hint::spin_loop();
+                }
+            }
+        }
     }
 }
 
@@ -110,7 +177,7 @@ pub fn run_team(size: usize, work: impl Fn(&Member) + Sync) {
             .compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed)
             .is_ok()
     {
-        true => Some(Running),
+        true => Some(Released(&TEAM_RUNNING)),
         false => {
             size = 1;
             None
@@ -387,5 +454,49 @@ mod tests {
             })
             .collect();
         assert_eq!(parts, vec![0..3, 3..6, 6..10]);
+    }
+
+    /// Work under a helper gives its result with its parallel loops done on both workers
+    /// (the helper takes their pieces), a team started inside it gets its members, a second
+    /// helper inside runs its work alone, and a panic in the work ends the helper and
+    /// reaches the caller instead of hanging.
+    #[test]
+    fn the_helper_takes_the_pieces_and_stops_with_the_work() {
+        use rayon::prelude::*;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let other = AtomicUsize::new(0);
+        let sum = pool.install(|| {
+            with_helper(|| {
+                let me = rayon::current_thread_index();
+                let inner = with_helper(|| 7u64);
+                // Pieces of a millisecond: long enough for the other worker to wake up.
+                let s: u64 = (0..200usize)
+                    .into_par_iter()
+                    .with_max_len(1)
+                    .map(|i| {
+                        std::thread::sleep(std::time::Duration::from_millis(1));
+                        if rayon::current_thread_index() != me {
+                            other.fetch_add(1, Ordering::Relaxed);
+                        }
+                        (i % 3) as u64
+                    })
+                    .sum();
+                s + inner
+            })
+        });
+        assert_eq!(sum, (0..200u64).map(|i| i % 3).sum::<u64>() + 7);
+        assert!(
+            other.load(Ordering::Relaxed) > 0,
+            "no piece ran on the helper"
+        );
+        let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            pool.install(|| with_helper(|| panic!("the work fails")))
+        }));
+        assert!(caught.is_err());
+        // The flag is free again: a later helper runs.
+        assert!(!HELPER_RUNNING.load(Ordering::Acquire));
     }
 }

@@ -239,7 +239,8 @@ impl<const D: usize> Simulation<D> {
     /// particles are restored to the last good state and the reason is returned.
     pub fn step(&mut self, until: f64) -> Result<StepReport, Breakdown> {
         self.undo = Undo::default();
-        match self.advance(until) {
+        // The pool's other worker waits for the step's parallel pieces by spinning.
+        match crate::linalg::team::with_helper(|| self.advance(until)) {
             Ok(r) => {
                 self.solver.commit();
                 self.last = r;
