@@ -126,7 +126,9 @@ static HELPER_RUNNING: AtomicBool = AtomicBool::new(false);
 /// `work` alone.
 ///
 /// The helper is the first job `work`'s worker pushes, so it is stolen before any piece of
-/// `work` can be: no worker holds a piece of `work` below the helper on its stack.
+/// `work` can be: no other worker holds a piece of `work` below the helper on its stack.
+/// `work`'s own worker may take it back while it waits (for a team's broadcast, say,
+/// before the other worker woke up): there the helper ends at once.
 pub fn with_helper<R: Send>(work: impl FnOnce() -> R + Send) -> R {
     if rayon::current_num_threads() < 2
         || rayon::current_thread_index().is_none()
@@ -138,12 +140,17 @@ pub fn with_helper<R: Send>(work: impl FnOnce() -> R + Send) -> R {
     }
     let _running = Released(&HELPER_RUNNING);
     let done = AtomicBool::new(false);
+    let owner = rayon::current_thread_index();
     let (result, ()) = rayon::join(
         || {
             let _done = SetOnDrop(&done);
             work()
         },
-        || help_until(&done),
+        || {
+            if rayon::current_thread_index() != owner {
+                help_until(&done)
+            }
+        },
     );
     result
 }
@@ -498,5 +505,39 @@ mod tests {
         assert!(caught.is_err());
         // The flag is free again: a later helper runs.
         assert!(!HELPER_RUNNING.load(Ordering::Acquire));
+    }
+
+    /// The stepping worker that takes its own helper back while it waits for a team (the
+    /// other worker still asleep) goes on: a helper there would wait for the step it sits
+    /// in. Run on a watchdog: a hang fails the test.
+    #[test]
+    fn a_team_inside_the_helper_s_work_does_not_hang() {
+        let (send, receive) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(2)
+                .build()
+                .unwrap();
+            let mut met = 0;
+            for _ in 0..50 {
+                // Long enough for the other worker to fall asleep.
+                std::thread::sleep(std::time::Duration::from_millis(3));
+                met += pool.install(|| {
+                    with_helper(|| {
+                        let n = AtomicUsize::new(0);
+                        run_team(2, |m| {
+                            m.wait();
+                            n.fetch_add(1, Ordering::Relaxed);
+                        });
+                        n.into_inner()
+                    })
+                });
+            }
+            send.send(met).unwrap();
+        });
+        let met = receive
+            .recv_timeout(std::time::Duration::from_secs(60))
+            .expect("the work under the helper hung");
+        assert!(met >= 50, "{met}");
     }
 }
