@@ -365,15 +365,20 @@ pub(crate) unsafe fn residual(
 mod tests {
     use super::*;
 
+    /// A pool of two workers.
+    fn pool_of_two() -> rayon::ThreadPool {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap()
+    }
+
     /// Two members each fill their half, meet, and then each reads the other's half: every
     /// round sees the other's writes of that round (a broken barrier shows a stale value).
     /// A team started while another test's team runs has one member: tried again then.
     #[test]
     fn members_see_each_others_writes_after_the_barrier() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
+        let pool = pool_of_two();
         let mut v = vec![0.0; 2];
         let shared = Shared::new(&mut v);
         let errors = AtomicUsize::new(0);
@@ -416,10 +421,7 @@ mod tests {
     /// rarely produces).
     #[test]
     fn teams_started_at_once_do_not_wait_on_each_other() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
+        let pool = pool_of_two();
         let done = AtomicUsize::new(0);
         std::thread::scope(|scope| {
             for _ in 0..6 {
@@ -470,10 +472,7 @@ mod tests {
     #[test]
     fn the_helper_takes_the_pieces_and_stops_with_the_work() {
         use rayon::prelude::*;
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
+        let pool = pool_of_two();
         let other = AtomicUsize::new(0);
         let sum = pool.install(|| {
             with_helper(|| {
@@ -514,10 +513,7 @@ mod tests {
     fn a_team_inside_the_helper_s_work_does_not_hang() {
         let (send, receive) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(2)
-                .build()
-                .unwrap();
+            let pool = pool_of_two();
             let mut met = 0;
             for _ in 0..50 {
                 // Long enough for the other worker to fall asleep.
