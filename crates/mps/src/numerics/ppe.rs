@@ -247,9 +247,14 @@ fn fill_rows<const D: usize>(
 }
 
 /// The rows of `particle_of` assembled into the matrix and right-hand side of `sys`, in
-/// their memory: the row lengths first, then every row written into its place in parallel
-/// (no per-chunk copies, no allocation once the arrays have grown).
+/// their memory: on one thread each row appended after the last; on more, the row lengths
+/// first, then every row written into its place in parallel (no per-chunk copies, no
+/// allocation once the arrays have grown). The same matrix either way.
 fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32], sys: &mut PressureSystem) {
+    if rayon::current_num_threads() == 1 {
+        append_rows(ctx, particle_of, sys);
+        return;
+    }
     let rows = particle_of.len();
     let m = &mut sys.matrix;
     let len = |_: &mut (), r: usize| ctx.row_length(particle_of[r] as usize);
@@ -258,6 +263,26 @@ fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32], sys: &mut P
     sys.rhs.resize(rows, 0.0);
     let parts = (&mut m.col[..], &mut m.val[..], &mut sys.rhs[..]);
     fill_rows(ctx, particle_of, &m.row_ptr, 0, parts);
+}
+
+/// [`assemble_rows`] on one thread: each row appended to the matrix in turn, so its
+/// offsets need no counting pass over the neighbours first (docs/decisions.md, "The PPE
+/// on one thread without its counting pass").
+fn append_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32], sys: &mut PressureSystem) {
+    let m = &mut sys.matrix;
+    m.row_ptr.clear();
+    m.col.clear();
+    m.val.clear();
+    m.row_ptr.push(0);
+    sys.rhs.clear();
+    ENTRIES.with_borrow_mut(|entries| {
+        for (row, &i) in particle_of.iter().enumerate() {
+            sys.rhs.push(ctx.assemble(i as usize, row as u32, entries));
+            m.col.extend(entries.iter().map(|e| e.0));
+            m.val.extend(entries.iter().map(|e| e.1));
+            m.row_ptr.push(m.col.len() as u32);
+        }
+    });
 }
 
 /// Assembles the PPE at the intermediate state; `previous` holds every particle's pressure
@@ -497,12 +522,22 @@ mod tests {
         assert!(ratio > 0.0 && ratio < 0.99, "ratio {ratio}");
     }
 
-    /// The matrix assembled in place (row lengths first, rows written into their slots in
-    /// parallel halves) is, row for row, what `Rows::assemble` gives each particle, on a
-    /// shaken block of 40 x 40 (seven row chunks) whose unknowns then change (the system's
-    /// memory reused for fewer and for more rows).
+    /// The matrix assembled in place (on two threads row lengths first, rows written into
+    /// their slots in parallel halves; on one, rows appended) is, row for row, what
+    /// `Rows::assemble` gives each particle, on a shaken block of 40 x 40 (seven row chunks)
+    /// whose unknowns then change (the system's memory reused for fewer and for more rows).
     #[test]
     fn rows_assembled_in_place_are_each_particles_row() {
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(rows_in_place_on_this_pool);
+        }
+    }
+
+    fn rows_in_place_on_this_pool() {
         let l0 = 0.01;
         let m = 40;
         let (mut pos, mut vel) = (Vec::new(), Vec::new());
