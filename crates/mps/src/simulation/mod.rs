@@ -287,7 +287,7 @@ impl<const D: usize> Simulation<D> {
         self.refresh_predicted(&mut pred);
         self.keep_neighbors_valid(&pred)?;
         if let Some(c) = self.scheme.collision {
-            report.collisions = self.timed(Stage::Explicit, |s| s.collide(&mut pred, c, dt));
+            report.collisions = self.collide_near(&mut pred, c, dt);
             self.refresh_predicted(&mut pred);
         }
         // 3. Number density n*, free surface, densities of wall and dummy particles.

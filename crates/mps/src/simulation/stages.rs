@@ -241,8 +241,21 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Stage 2b: the collision model on `u*`, moving `r*` by the velocity change; returns
-    /// the number of treated pairs.
-    pub(super) fn collide(&self, pred: &mut Predicted<D>, c: Collision, dt: f64) -> u64 {
+    /// the number of treated pairs. It reads the near lists cut at `r*` (timed with stage 3,
+    /// which keeps them when the model moved no particle, as in most steps).
+    pub(super) fn collide_near(&mut self, pred: &mut Predicted<D>, c: Collision, dt: f64) -> u64 {
+        self.timed(Stage::DensitySurface, |s| s.cut_near_lists(&pred.pos));
+        let (n, moved) = self.timed(Stage::Explicit, |s| s.collide(pred, c, dt));
+        // Another process's collisions move this one's halo copies (`refresh_predicted`).
+        if moved || self.is_distributed() {
+            self.drop_near_lists();
+        }
+        n
+    }
+
+    /// [`Self::collide_near`]'s model: the number of treated pairs and whether any
+    /// particle's velocity (and so position) changed.
+    fn collide(&self, pred: &mut Predicted<D>, c: Collision, dt: f64) -> (u64, bool) {
         let v = self.view_of(&pred.pos, &pred.vel, None, None);
         let mut vel = self.spare.take();
         let n = collide(
@@ -250,23 +263,34 @@ impl<const D: usize> Simulation<D> {
             (c.alpha * self.l0(), c.restitution, self.l0()),
             &mut vel,
         );
+        let mut moved = false;
         for i in 0..pred.pos.len() {
+            moved |= vel[i] != pred.vel[i];
             pred.pos[i] += (vel[i] - pred.vel[i]) * dt;
         }
         self.spare.give(std::mem::replace(&mut pred.vel, vel));
-        n
+        (n, moved)
     }
 
-    /// Stage 3: number density at re_grad and free-surface flags at positions `pos`. First the
-    /// neighbour lists are cut to re_grad at `pos` for the pair loops of stages 3 to 5 (the
-    /// same pairs in the same order, a third of the candidates in 2D); they are cleared when
-    /// the particles move (`correct`).
-    pub(super) fn density_and_surface(&mut self, pos: &[Vector<D>]) -> DensitySurface {
-        let re = self.kernels.grad.re;
+    /// The neighbour lists cut to re_grad at positions `pos` for the pair loops that follow
+    /// (the same pairs in the same order, a third of the candidates in 2D), until the
+    /// particles move: the collision model's, if it moved none, and those of stages 3 to 5;
+    /// dropped when the particles move (`correct`, a collision, a failed step).
+    pub(super) fn cut_near_lists(&mut self, pos: &[Vector<D>]) {
         self.drop_near_lists();
         let mut near = self.spare_near.take().unwrap_or_default();
-        self.neighbors.cut_into(pos, re, &mut near);
+        self.neighbors
+            .cut_into(pos, self.kernels.grad.re, &mut near);
         self.neighbors.near = Some(near);
+    }
+
+    /// Stage 3: number density at re_grad and free-surface flags at positions `pos`, on the
+    /// near lists cut at `pos` (cut here unless the collision model's are still in place).
+    pub(super) fn density_and_surface(&mut self, pos: &[Vector<D>]) -> DensitySurface {
+        let re = self.kernels.grad.re;
+        if self.neighbors.near.is_none() {
+            self.cut_near_lists(pos);
+        }
         let mut nd = self.spare.take();
         (0..pos.len())
             .into_par_iter()
