@@ -83,9 +83,7 @@ impl NeighborList {
             |i, sink| {
                 let xi = pos[i];
                 for &j in self.of(i) {
-                    if (pos[j as usize] - xi).norm2() <= far {
-                        sink.push(j);
-                    }
+                    sink.push_if(j, (pos[j as usize] - xi).norm2() <= far);
                 }
             },
         );
@@ -202,6 +200,17 @@ impl ChunkSink<'_> {
             *slot = j;
         }
         self.len += 1;
+    }
+
+    /// Appends neighbour `j` if `keep`, without a branch on `keep` (a cut whose tests fail
+    /// and pass at random): the slot after the list is written either way and counts only
+    /// when kept.
+    #[inline]
+    pub fn push_if(&mut self, j: u32, keep: bool) {
+        if let Some(slot) = self.region.get_mut(self.len) {
+            *slot = j;
+        }
+        self.len += keep as usize;
     }
 }
 
@@ -431,6 +440,18 @@ impl<const D: usize> CellGrid<D> {
     /// cells' order, then the order within each cell (deterministic).
     #[inline]
     pub fn for_each_within(&self, p: &Vector<D>, r2: f64, mut f: impl FnMut(u32)) {
+        self.for_each_candidate(p, r2, |j, within| {
+            if within {
+                f(j)
+            }
+        })
+    }
+
+    /// [`Self::for_each_within`] over every point of the cells scanned, `f(j, within)`
+    /// telling which lie within `sqrt(r2)` (m): a caller that stores `j` either way and
+    /// counts it only when within needs no branch on it.
+    #[inline]
+    pub fn for_each_candidate(&self, p: &Vector<D>, r2: f64, mut f: impl FnMut(u32, bool)) {
         let c = self.coords_of(p);
         let (x_lo, x_hi) = (
             (c[0] - 1).clamp(0, self.dims[0] as i64 - 1),
@@ -453,10 +474,9 @@ impl<const D: usize> CellGrid<D> {
             };
             let last = first + (x_hi - x_lo) as usize;
             let (a, b) = (self.start[first] as usize, self.start[last + 1] as usize);
-            for (k, q) in self.sorted_points[a..b].iter().enumerate() {
-                if (*q - *p).norm2() < r2 {
-                    f(self.sorted[a + k]);
-                }
+            let points = self.sorted_points[a..b].iter();
+            for (q, &j) in points.zip(&self.sorted[a..b]) {
+                f(j, (*q - *p).norm2() < r2);
             }
         }
     }
@@ -574,10 +594,8 @@ fn build_lists<const D: usize>(
                     return;
                 }
             }
-            grid.for_each_within(&points[i], c2, |j| {
-                if j as usize != i {
-                    sink.push(j);
-                }
+            grid.for_each_candidate(&points[i], c2, |j, within| {
+                sink.push_if(j, within && j as usize != i)
             })
         },
     );
