@@ -171,7 +171,10 @@ impl Dilu {
     }
 
     /// `u_i = (v(i) - L_i u) / d_i` over rows `rows`, all of one part, in the order the
-    /// forward substitution takes them (`down`: descending).
+    /// forward substitution takes them: the first part ascending, the second part and the
+    /// band (both numbered backwards) descending. Each part has a loop of its own: the
+    /// rows' two pieces read only where a row can have both, the band (docs/decisions.md,
+    /// "The twisted substitutions' loops per part").
     ///
     /// # Safety
     /// `v` and `u` read and write vectors of the matrix's size; no other thread writes what
@@ -180,66 +183,55 @@ impl Dilu {
         &self,
         a: &CsrMatrix,
         rows: Range<usize>,
-        down: bool,
         v: impl Fn(usize) -> f64,
         u: *mut f64,
     ) {
         let (rp, dp, mp) = (&a.row_ptr, &self.diag_pos, &self.mid_pos);
         let (col, val, inv_d) = (&a.col[..], &a.val[..], &self.inv_d[..]);
         if rows.end <= self.m {
-            // The first part: the columns below the diagonal, ascending.
+            // The first part: the columns below the diagonal.
             for i in rows {
                 let (s, p) = (rp[i] as usize, dp[i] as usize);
                 *u.add(i) = (v(i) - last_after(&col[s..p], &val[s..p], u)) * inv_d[i];
             }
-            return;
-        }
-        let row = |i: usize| {
-            let (s, mid, p, e) = (
-                rp[i] as usize,
-                mp[i] as usize,
-                dp[i] as usize,
-                rp[i + 1] as usize,
-            );
-            let near = first_after(&col[p + 1..e], &val[p + 1..e], u);
-            *u.add(i) = (v(i) - ptr_dot(&col[s..mid], &val[s..mid], u) - near) * inv_d[i];
-        };
-        match down {
-            false => rows.for_each(row),
-            true => rows.rev().for_each(row),
+        } else if rows.start >= self.m + self.s {
+            // The second part outside the band: no first-part columns, only those above the
+            // diagonal (the first part's backward rows, mirrored).
+            for i in rows.rev() {
+                let (p, e) = (dp[i] as usize + 1, rp[i + 1] as usize);
+                *u.add(i) = (v(i) - first_after(&col[p..e], &val[p..e], u)) * inv_d[i];
+            }
+        } else {
+            // The band: the first part's columns and those above the diagonal.
+            for i in rows.rev() {
+                let (s, mid) = (rp[i] as usize, mp[i] as usize);
+                let (p, e) = (dp[i] as usize + 1, rp[i + 1] as usize);
+                let near = first_after(&col[p..e], &val[p..e], u);
+                *u.add(i) = (v(i) - ptr_dot(&col[s..mid], &val[s..mid], u) - near) * inv_d[i];
+            }
         }
     }
 
     /// `w_i = (v_i - U_i w) / d_i` over rows `rows`, all of one part, in the order the
-    /// backward substitution takes them (`down`: descending).
+    /// backward substitution takes them (the reverse of [`Dilu::forward_rows`]'s).
     ///
     /// # Safety
     /// As for [`Dilu::forward_rows`].
-    unsafe fn backward_rows(
-        &self,
-        a: &CsrMatrix,
-        rows: Range<usize>,
-        down: bool,
-        v: *const f64,
-        w: *mut f64,
-    ) {
+    unsafe fn backward_rows(&self, a: &CsrMatrix, rows: Range<usize>, v: *const f64, w: *mut f64) {
         let (rp, dp, mp) = (&a.row_ptr, &self.diag_pos, &self.mid_pos);
         let (col, val, inv_d) = (&a.col[..], &a.val[..], &self.inv_d[..]);
         if rows.end <= self.m {
-            // The first part: the columns above the diagonal, descending.
+            // The first part: the columns above the diagonal.
             for i in rows.rev() {
                 let (p, e) = (dp[i] as usize + 1, rp[i + 1] as usize);
                 *w.add(i) = (*v.add(i) - first_after(&col[p..e], &val[p..e], w)) * inv_d[i];
             }
-            return;
-        }
-        let row = |i: usize| {
-            let (mid, p) = (mp[i] as usize, dp[i] as usize);
-            *w.add(i) = (*v.add(i) - last_after(&col[mid..p], &val[mid..p], w)) * inv_d[i];
-        };
-        match down {
-            false => rows.for_each(row),
-            true => rows.rev().for_each(row),
+        } else {
+            // The second part and the band: the second part's columns below the diagonal.
+            for i in rows {
+                let (mid, p) = (mp[i] as usize, dp[i] as usize);
+                *w.add(i) = (*v.add(i) - last_after(&col[mid..p], &val[mid..p], w)) * inv_d[i];
+            }
         }
     }
 
@@ -249,9 +241,9 @@ impl Dilu {
         let (src, dst) = (|i: usize| v[i], u.as_mut_ptr());
         // SAFETY: one thread, vectors of the matrix's size.
         unsafe {
-            self.forward_rows(a, first, false, src, dst);
-            self.forward_rows(a, second, true, src, dst);
-            self.forward_rows(a, band, true, src, dst);
+            self.forward_rows(a, first, src, dst);
+            self.forward_rows(a, second, src, dst);
+            self.forward_rows(a, band, src, dst);
         }
     }
 
@@ -262,9 +254,9 @@ impl Dilu {
         let (src, dst) = (v.as_ptr(), w.as_mut_ptr());
         // SAFETY: as for `forward`.
         unsafe {
-            self.backward_rows(a, band, false, src, dst);
-            self.backward_rows(a, first, true, src, dst);
-            self.backward_rows(a, second, false, src, dst);
+            self.backward_rows(a, band, src, dst);
+            self.backward_rows(a, first, src, dst);
+            self.backward_rows(a, second, src, dst);
         }
     }
 
@@ -291,9 +283,9 @@ impl Dilu {
         let src = |i: usize| p[i] - self.k[i] * w[i];
         // SAFETY: one thread, vectors of the matrix's size.
         unsafe {
-            self.forward_rows(a, first, false, src, q.as_mut_ptr());
-            self.forward_rows(a, second, true, src, q.as_mut_ptr());
-            self.forward_rows(a, band, true, src, q.as_mut_ptr());
+            self.forward_rows(a, first, src, q.as_mut_ptr());
+            self.forward_rows(a, second, src, q.as_mut_ptr());
+            self.forward_rows(a, band, src, q.as_mut_ptr());
         }
         for (qi, wi) in q.iter_mut().zip(w.iter()) {
             *qi += wi;
@@ -699,16 +691,16 @@ fn forward(t: &Member, a: &CsrMatrix, m: &Dilu, v: impl Fn(usize) -> f64 + Copy,
     // SAFETY: the parts couple to neither each other nor the band's results.
     unsafe {
         if t.index == 0 {
-            m.forward_rows(a, first, false, v, u);
+            m.forward_rows(a, first, v, u);
         }
         if t.index == 1 || t.size == 1 {
-            m.forward_rows(a, second, true, v, u);
+            m.forward_rows(a, second, v, u);
         }
     }
     t.wait();
     if t.index == 0 {
         // SAFETY: the other members wait at the next barrier.
-        unsafe { m.forward_rows(a, band, true, v, u) };
+        unsafe { m.forward_rows(a, band, v, u) };
     }
     t.wait();
 }
@@ -719,16 +711,16 @@ fn backward(t: &Member, a: &CsrMatrix, m: &Dilu, v: *const f64, w: *mut f64) {
     t.wait();
     if t.index == 0 {
         // SAFETY: the other members wait at the next barrier.
-        unsafe { m.backward_rows(a, band, false, v, w) };
+        unsafe { m.backward_rows(a, band, v, w) };
     }
     t.wait();
     // SAFETY: as for the forward parts.
     unsafe {
         if t.index == 0 {
-            m.backward_rows(a, first, true, v, w);
+            m.backward_rows(a, first, v, w);
         }
         if t.index == 1 || t.size == 1 {
-            m.backward_rows(a, second, false, v, w);
+            m.backward_rows(a, second, v, w);
         }
     }
     t.wait();
