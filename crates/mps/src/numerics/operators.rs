@@ -22,6 +22,25 @@ pub fn number_density<const D: usize>(
     n
 }
 
+/// [`number_density`] and, from the same pairs, the closest neighbour's distance (m; infinite
+/// without neighbours) and how many neighbours closer than `close` (m) `counts` accepts.
+#[inline]
+pub fn number_density_and_closest<const D: usize>(
+    i: usize,
+    pos: &[Vector<D>],
+    nl: &NeighborList,
+    (re, close): (f64, f64),
+    counts: impl Fn(usize) -> bool,
+) -> (f64, f64, u64) {
+    let (mut n, mut closest, mut count) = (0.0, f64::INFINITY, 0);
+    for p in pairs(pos, nl, i, re) {
+        n += p.w;
+        closest = closest.min(p.r);
+        count += (p.r < close && counts(p.j)) as u64;
+    }
+    (n, closest, count)
+}
+
 /// Laplacian of a vector field `u`, `(2d/(lambda n0)) sum_j (u_j - u_i) w_ij`
 /// (equations.md s.2; units of `u` per m^2).
 #[inline]

@@ -290,9 +290,11 @@ impl<const D: usize> Simulation<D> {
             report.collisions = self.collide_near(&mut pred, c, dt);
             self.refresh_predicted(&mut pred);
         }
-        // 3. Number density n*, free surface, densities of wall and dummy particles.
+        // 3. Number density n*, free surface, the closest pairs, wall and dummy densities.
         let mut surf = self.timed(Stage::DensitySurface, |s| s.density_and_surface(&pred.pos));
         self.refresh_surface(&mut surf);
+        let (m, c) = surf.closest;
+        (report.min_pair_distance, report.close_pairs) = (self.min(m), self.sum(c));
         self.timed(Stage::DensitySurface, |s| s.update_wall_density(&pred.pos));
         // 4. Pressure Poisson equation at r*, u*.
         let mut density = self.ppe_density(&pred, &surf);
@@ -312,8 +314,6 @@ impl<const D: usize> Simulation<D> {
             s.refresh_vectors(&mut acc);
             let (ds_acc, ds_active) = s.stabilize(&pred, &surf, &acc, dt);
             report.ds_active = s.sum(ds_active);
-            let (m, c) = s.pair_metrics(&pred, &surf);
-            (report.min_pair_distance, report.close_pairs) = (s.min(m), s.sum(c));
             (acc, ds_acc, s.shift(&pred, &surf, dt))
         });
         // 6. Correction u = u* + dt a, r = r* + dt^2 a (+ shift), and the breakdown checks.

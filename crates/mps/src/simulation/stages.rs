@@ -10,7 +10,7 @@ use crate::numerics::free_surface_tension::{laplace_jump, particle_scale_tension
 use crate::numerics::gradient::{p_hat, pressure_acceleration, GradientModel};
 use crate::numerics::interface_repulsion::interface_repulsion;
 use crate::numerics::interfacial_tension::{surface_force, TensionInput};
-use crate::numerics::operators::{laplacian_vector, number_density};
+use crate::numerics::operators::{laplacian_vector, number_density, number_density_and_closest};
 use crate::numerics::ppe::{assemble_into, is_dirichlet, PressureReference, PressureSystem};
 use crate::numerics::shifting::shift;
 use crate::numerics::stabilization::{ds_acceleration, DsVelocity};
@@ -39,6 +39,9 @@ pub struct DensitySurface {
     pub number_density: Vec<f64>,
     /// Free-surface flags.
     pub free_surface: Vec<bool>,
+    /// Over the own fluid particles' pairs within re_grad: the smallest distance (m) and the
+    /// number of pairs closer than 0.9 l0 (a fluid pair counted once).
+    pub closest: (f64, u64),
 }
 
 /// Dynamic Stabilization's arrays for one step.
@@ -284,18 +287,31 @@ impl<const D: usize> Simulation<D> {
         self.neighbors.near = Some(near);
     }
 
-    /// Stage 3: number density at re_grad and free-surface flags at positions `pos`, on the
-    /// near lists cut at `pos` (cut here unless the collision model's are still in place).
+    /// Stage 3: number density at re_grad, free-surface flags and the closest pairs at
+    /// positions `pos`, on the near lists cut at `pos` (cut here unless the collision
+    /// model's are still in place).
     pub(super) fn density_and_surface(&mut self, pos: &[Vector<D>]) -> DensitySurface {
         let re = self.kernels.grad.re;
         if self.neighbors.near.is_none() {
             self.cut_near_lists(pos);
         }
         let mut nd = self.spare.take();
-        (0..pos.len())
-            .into_par_iter()
-            .map(|i| number_density(i, pos, &self.neighbors, re))
-            .collect_into_vec(&mut nd);
+        nd.resize(pos.len(), 0.0);
+        let (kind, owned, nl) = (&self.particles.kind, self.owned(), &self.neighbors);
+        let radii = (re, 0.9 * self.l0());
+        // The pair metrics of the own fluid particles from the same pairs.
+        let closest = (nd.par_iter_mut().enumerate())
+            .map(|(i, n)| {
+                if kind[i] != Kind::Fluid || i >= owned {
+                    *n = number_density(i, pos, nl, re);
+                    return (f64::INFINITY, 0);
+                }
+                let counts = |j: usize| kind[j] != Kind::Fluid || i < j;
+                let (sum, m, c) = number_density_and_closest(i, pos, nl, radii, counts);
+                *n = sum;
+                (m, c)
+            })
+            .reduce(|| (f64::INFINITY, 0), |a, b| (a.0.min(b.0), a.1 + b.1));
         let input = SurfaceInput {
             pos,
             neighbors: &self.neighbors,
@@ -318,6 +334,7 @@ impl<const D: usize> Simulation<D> {
         DensitySurface {
             number_density: nd,
             free_surface,
+            closest,
         }
     }
 
@@ -703,27 +720,6 @@ impl<const D: usize> Simulation<D> {
             .map(|i| shift(i, &v, phase, &self.kernels, &s, travel))
             .collect_into_vec(&mut shifts);
         Some(shifts)
-    }
-
-    /// Smallest fluid-neighbour distance (m) and the number of pairs closer than 0.9 l0.
-    pub(super) fn pair_metrics(&self, pred: &Predicted<D>, surf: &DensitySurface) -> (f64, u64) {
-        let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
-        let lim = 0.9 * self.l0();
-        let re = self.kernels.grad.re;
-        (0..self.owned())
-            .into_par_iter()
-            .filter(|&i| v.kind[i] == Kind::Fluid)
-            .map(|i| {
-                let (mut m, mut c) = (f64::INFINITY, 0u64);
-                for q in v.pairs(i, re) {
-                    m = m.min(q.r);
-                    if q.r < lim && (v.kind[q.j] != Kind::Fluid || i < q.j) {
-                        c += 1;
-                    }
-                }
-                (m, c)
-            })
-            .reduce(|| (f64::INFINITY, 0), |a, b| (a.0.min(b.0), a.1 + b.1))
     }
 
     /// Ids of a fluid particle and its neighbour at distance `r` (m), the closest pair of
