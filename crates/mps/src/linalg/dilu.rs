@@ -648,15 +648,19 @@ fn scaled(m: &Dilu, v: Vectors, mine: &Range<usize>, alpha: f64, step: bool) {
     };
     let rz_own = unsafe { v.parts[1].part(mine.clone()) };
     for (k, rows) in blocks_of(mine, n) {
-        let mut rz = 0.0;
-        for i in rows {
-            let l = i - own.start;
-            if step {
-                y[l] += alpha * p[l];
-                rh[l] -= alpha * q[l];
+        let l = rows.start - own.start..rows.end - own.start;
+        let (rh, z, d) = (&mut rh[l.clone()], &mut z[l.clone()], &m.d[rows]);
+        if step {
+            let (y, p, q) = (&mut y[l.clone()], &p[l.clone()], &q[l]);
+            for (((yk, rk), pk), qk) in y.iter_mut().zip(rh.iter_mut()).zip(p).zip(q) {
+                *yk += alpha * pk;
+                *rk -= alpha * qk;
             }
-            z[l] = m.d[i] * rh[l];
-            rz += rh[l] * z[l];
+        }
+        let mut rz = 0.0;
+        for ((zk, rk), dk) in z.iter_mut().zip(rh.iter()).zip(d) {
+            *zk = dk * rk;
+            rz += rk * *zk;
         }
         rz_own[k] = rz;
     }
@@ -674,11 +678,11 @@ fn with_w_added(v: Vectors, mine: &Range<usize>, n: usize) {
     };
     let pq_own = unsafe { v.parts[0].part(mine.clone()) };
     for (k, rows) in blocks_of(mine, n) {
+        let l = rows.start - own.start..rows.end - own.start;
         let mut pq = 0.0;
-        for i in rows {
-            let l = i - own.start;
-            q[l] += w[l];
-            pq += p[l] * q[l];
+        for ((qk, wk), pk) in q[l.clone()].iter_mut().zip(&w[l.clone()]).zip(&p[l]) {
+            *qk += wk;
+            pq += pk * *qk;
         }
         pq_own[k] = pq;
     }
