@@ -93,16 +93,16 @@ pub fn dirichlet_values_into<const D: usize>(
     (0..v.pos.len())
         .into_par_iter()
         .map(|i| {
-            let surface = v.kind[i] == Kind::Fluid && v.free_surface[i];
+            // Only free-surface fluid particles have a value (and pay for its three
+            // neighbour passes).
+            if v.kind[i] != Kind::Fluid || !v.free_surface[i] {
+                return 0.0;
+            }
             let level = levels.get(i).copied().unwrap_or(0.0);
-            match (
-                surface,
-                mean_surface_value(i, v, previous, k, (edge, level)),
-            ) {
-                (false, _) => 0.0,
-                (true, Some(p)) => p,
-                (true, None) if edge > 0.0 => f64::NAN,
-                (true, None) => 0.0,
+            match mean_surface_value(i, v, previous, k, (edge, level)) {
+                Some(p) => p,
+                None if edge > 0.0 => f64::NAN,
+                None => 0.0,
             }
         })
         .collect_into_vec(out);
