@@ -113,13 +113,19 @@ fn curvature<const D: usize>(inp: &TensionInput<D>, free: &[f64]) -> Vec<f64> {
     let n = inp.pos.len();
     let tension =
         |i: usize| inp.fluid[i] && free.get(inp.phase[i] as usize).is_some_and(|&s| s > 0.0);
-    let near_surface =
-        |i: usize| inp.surface[i] || pairs(inp.pos, inp.nl, i, inp.re).any(|p| inp.surface[p.j]);
+    // The band: the free-surface particles and every particle within re of one, marked
+    // from the surface (a pass over its particles, not over the interior's).
+    let mut band = inp.surface.to_vec();
+    for i in (0..n).filter(|&i| inp.surface[i]) {
+        for p in pairs(inp.pos, inp.nl, i, inp.re) {
+            band[p.j] = true;
+        }
+    }
     let threshold = NORMAL_THRESHOLD / inp.l0;
     let normals: Vec<Option<Vector<D>>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let g = (tension(i) && near_surface(i)).then(|| void_gradient(inp, i))?;
+            let g = (tension(i) && band[i]).then(|| void_gradient(inp, i))?;
             let m = g.norm();
             (m > threshold).then(|| g * (1.0 / m))
         })
@@ -235,6 +241,10 @@ pub fn particle_scale_tension<const D: usize>(
     let weight: Vec<f64> = (0..n)
         .into_par_iter()
         .map(|i| {
+            // Read only where the surface has tension.
+            if !along(i) {
+                return 1.0;
+            }
             let near = pairs(inp.pos, inp.nl, i, inp.re_near).filter(|p| along(p.j));
             1.0 + near.map(|p| p.w).sum::<f64>()
         })
