@@ -32,24 +32,35 @@ pub fn pairs<'a, const D: usize>(
 ) -> impl Iterator<Item = Pair<D>> + 'a {
     let nl = nl.for_radius(re);
     let xi = pos[i];
+    nl.of(i)
+        .iter()
+        .filter_map(move |&j| pair_with(pos, xi, j as usize, re))
+}
+
+/// Listed neighbour `j` as a [`Pair`] of the particle at `xi` (m) if `0 < r_ij < re` (m).
+/// The pair is symmetric bit for bit: `j`'s pair with `i` has the same `r`, `r2` and `w`.
+#[inline]
+pub fn pair_with<const D: usize>(
+    pos: &[Vector<D>],
+    xi: Vector<D>,
+    j: usize,
+    re: f64,
+) -> Option<Pair<D>> {
     // Far neighbours (the list's skin, a smaller radius) are rejected before the square root;
     // the margin leaves the exact test `r < re` to decide at the rim.
     let far = re * re * (1.0 + 1e-9);
-    nl.of(i).iter().filter_map(move |&j| {
-        let j = j as usize;
-        let xij = pos[j] - xi;
-        let r2 = xij.norm2();
-        if r2 > far {
-            return None;
-        }
-        let r = r2.sqrt();
-        (r > 0.0 && r < re).then(|| Pair {
-            j,
-            xij,
-            r2,
-            r,
-            w: weight(r, re),
-        })
+    let xij = pos[j] - xi;
+    let r2 = xij.norm2();
+    if r2 > far {
+        return None;
+    }
+    let r = r2.sqrt();
+    (r > 0.0 && r < re).then(|| Pair {
+        j,
+        xij,
+        r2,
+        r,
+        w: weight(r, re),
     })
 }
 

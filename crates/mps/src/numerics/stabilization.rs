@@ -9,6 +9,7 @@
 //! docs/decisions.md, "DS whole at the free surface").
 
 use super::kernel::Kernels;
+use super::pairs::pair_with;
 use crate::particles::{Kind, Vector, View};
 use serde::{Deserialize, Serialize};
 
@@ -82,15 +83,27 @@ pub fn ds_acceleration<const D: usize>(
     let rho_i = v.density[i];
     let mut out = DsCorrection::default();
     let inelastic = ds.velocity == DsVelocity::Inelastic;
-    for q in v.pairs(i, k.grad.re) {
-        let j = q.j;
+    let (xi, d2) = (v.pos[i], d_ji * d_ji);
+    for &j in v.neighbors.for_radius(k.grad.re).of(i) {
+        let j = j as usize;
         let solid = v.kind[j] != Kind::Fluid;
         if solid && !ds.walls {
             continue;
         }
-        let e = q.xij / q.r;
-        // Eq. 11: displacement of j relative to i caused by the gradient term.
+        // Most pairs end beyond d_ji after the gradient's displacement, |r_ij + dr| >= d_ji
+        // (the test below, which decides, in other terms): they are passed over without
+        // their geometry, by a margin far above the two forms' rounding.
         let dr = (acc[j] - acc[i]) * (dt * dt);
+        let y = v.pos[j] - xi + dr;
+        let scale = d2 + (v.pos[j] - xi).norm2() + dr.norm2();
+        if y.norm2() >= d2 + 1e-9 * scale {
+            continue;
+        }
+        let Some(q) = pair_with(v.pos, xi, j, k.grad.re) else {
+            continue;
+        };
+        let e = q.xij / q.r;
+        // Eq. 11: displacement of j relative to i caused by the gradient term (`dr` above).
         let along = dr.dot(&e);
         let s_par = q.r + along;
         let s_perp = (dr - e * along).norm();
@@ -182,6 +195,59 @@ mod tests {
         let want = weight(0.8, 2.1)
             / crate::numerics::kernel::KernelConstants::on_lattice::<2>(2.1, 1.0).n0;
         assert!((frac - want).abs() < 1e-9, "{frac} vs {want}");
+    }
+
+    /// Pairs whose displaced distance `|r_ij + dr|` lies just inside or outside `d_ji`
+    /// (relative offsets from 1e-13 to 1e-3 either way): the pair is active exactly when
+    /// Eq. 11-13's own test says so, `s_par^2 + s_perp^2 < d_ji^2`, so the pass-over of far
+    /// pairs drops none that the test keeps.
+    #[test]
+    fn pairs_at_the_threshold_are_active_as_eq_13_says() {
+        let (l0, dt) = (0.01, 1e-3);
+        let k = Kernels::new::<2>(l0, 2.1, 3.1);
+        let ds = DynamicStabilization {
+            alpha: 0.9,
+            weighting: DsWeighting::Kernel,
+            walls: true,
+            velocity: DsVelocity::Restoring,
+        };
+        let d = ds.alpha * l0;
+        let (mut seed, mut active) = (7u64, [0, 0]);
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for m in 0..2000 {
+            let delta = 10f64.powf(-13.0 + 10.0 * next()) * if m % 2 == 0 { 1.0 } else { -1.0 };
+            let tau = std::f64::consts::TAU;
+            let (t, u) = (tau * next(), tau * next());
+            let acc1 = Vector([u.cos(), u.sin()]) * (3000.0 * next());
+            let dr = acc1 * (dt * dt);
+            // r_ij chosen so that r_ij + dr lies at d (1 + delta) along direction t.
+            let x1 = Vector([t.cos(), t.sin()]) * (d * (1.0 + delta)) - dr;
+            let cloud = Cloud::new(
+                vec![Vector::zero(), x1],
+                vec![Vector::zero(); 2],
+                vec![1000.0; 2],
+                0.0,
+                3.4 * l0,
+            );
+            let acc = vec![Vector::zero(), acc1];
+            let got = ds_acceleration(0, &cloud.view(), &acc, &ds, &k, dt).active;
+            let r = x1.norm();
+            let e = x1 / r;
+            let along = dr.dot(&e);
+            let (s_par, s_perp) = (r + along, (dr - e * along).norm());
+            let inside = s_par * s_par + s_perp * s_perp < d * d;
+            let restores = (d * d - s_perp * s_perp).max(0.0).sqrt() - s_par > 0.0;
+            let want = (r < k.grad.re && inside && restores) as usize;
+            assert_eq!(got as usize, want, "pair {m}: delta {delta:e}");
+            active[want] += 1;
+        }
+        // Both outcomes occur, about half each.
+        assert!(active[0] > 800 && active[1] > 800, "{active:?}");
     }
 
     #[test]
