@@ -7,7 +7,7 @@
 
 use super::density::DensityAverage;
 use super::kernel::Kernels;
-use super::operators::gradient_correction;
+use super::operators::{add_moment, moment_inverse};
 use crate::particles::{Matrix, Vector, View};
 use serde::{Deserialize, Serialize};
 
@@ -89,27 +89,9 @@ fn pair_difference(model: GradientModel, p: &[f64], ph: &[f64], i: usize, j: usi
     }
 }
 
-/// The tensor `C_i` of particle `i`: the GC inverse moment matrix, or `d I`.
-pub fn correction_tensor<const D: usize>(
-    i: usize,
-    v: &View<D>,
-    carries: &[bool],
-    k: &Kernels,
-    g: &PressureGradient,
-) -> Matrix<D> {
-    if g.correction {
-        gradient_correction(
-            i,
-            v.pos,
-            v.neighbors,
-            &k.grad,
-            |j| carries[j],
-            g.gc_min_determinant,
-            g.gc_fallback == GcFallback::Floored,
-        )
-    } else {
-        Matrix::scaled_identity(D as f64)
-    }
+/// Whether the GC tensor's fallback is floored (rather than `d I`).
+fn floored(g: &PressureGradient) -> bool {
+    g.gc_fallback == GcFallback::Floored
 }
 
 /// Pressure acceleration `a_i = -<grad p>_i / rho` of fluid particle `i` (m/s^2) by the
@@ -123,14 +105,17 @@ pub fn pressure_acceleration<const D: usize>(
     k: &Kernels,
     g: &PressureGradient,
 ) -> Vector<D> {
-    let c = correction_tensor(i, v, carries, k, g);
     let rho_i = v.density[i];
-    // sum_j C_i r_ij s_ij = C_i sum_j r_ij s_ij: the tensor applied once, after the sum.
-    let mut sum = Vector::zero();
+    // sum_j C_i r_ij s_ij = C_i sum_j r_ij s_ij: the tensor applied once, after the sum, its
+    // moment matrix summed over the same pairs in the same loop.
+    let (mut sum, mut moment) = (Vector::zero(), Matrix::zero());
     let re = k.grad.re;
     for q in v.pairs(i, re) {
         if !carries[q.j] {
             continue;
+        }
+        if g.correction {
+            add_moment(&mut moment, &q, &k.grad);
         }
         let rho = match g.density {
             GradientDensity::Pair => g.average.of(rho_i, v.density[q.j]),
@@ -140,6 +125,10 @@ pub fn pressure_acceleration<const D: usize>(
         // w / r^2 = (re - r) / (r r^2): one division a pair instead of two.
         sum += q.xij * (dp * (re - q.r) / (q.r * q.r2 * rho));
     }
+    let c = match g.correction {
+        true => moment_inverse(moment, g.gc_min_determinant, floored(g)),
+        false => Matrix::scaled_identity(D as f64),
+    };
     c.mul_vec(&sum) * (-1.0 / k.grad.n0)
 }
 

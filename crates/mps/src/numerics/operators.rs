@@ -3,7 +3,7 @@
 //! operators the step uses; the unit tests below check them on lattices.
 
 use super::kernel::KernelConstants;
-use super::pairs::pairs;
+use super::pairs::{pairs, Pair};
 use crate::particles::{Matrix, NeighborList, Vector};
 
 /// Particle number density `n_i = sum_{j != i} w(|r_ij|)` at radius `re` (m)
@@ -129,9 +129,25 @@ pub fn gradient_correction<const D: usize>(
     let mut m = Matrix::zero();
     for p in pairs(pos, nl, i, k.re) {
         if include(p.j) {
-            m.add_scaled(&p.xij.outer(&p.xij), p.w / (p.r2 * k.n0));
+            add_moment(&mut m, &p, k);
         }
     }
+    moment_inverse(m, fallback_fraction, floored)
+}
+
+/// Pair `p`'s term of the GC moment matrix, `w r_ij (x) r_ij / (r^2 n0)`.
+#[inline]
+pub fn add_moment<const D: usize>(m: &mut Matrix<D>, p: &Pair<D>, k: &KernelConstants) {
+    m.add_scaled(&p.xij.outer(&p.xij), p.w / (p.r2 * k.n0));
+}
+
+/// The GC tensor from the summed moment matrix `m` ([`gradient_correction`]'s fallbacks).
+#[inline]
+pub fn moment_inverse<const D: usize>(
+    m: Matrix<D>,
+    fallback_fraction: f64,
+    floored: bool,
+) -> Matrix<D> {
     let reference = (D as f64).powi(-(D as i32));
     let per_pair = |det: f64| {
         let ratio = det / reference;
