@@ -8,6 +8,7 @@
 use super::density::DensityAverage;
 use super::kernel::Kernels;
 use super::operators::{add_moment, moment_inverse};
+use super::pairs::is_within;
 use crate::particles::{Matrix, Vector, View};
 use serde::{Deserialize, Serialize};
 
@@ -67,11 +68,13 @@ pub struct PressureGradient {
 /// Minimum pressure `p_hat_i = min(p_i, min_j p_j)` (Pa) over neighbours within `re` (m) that
 /// carry pressure (paper Eq. 2).
 pub fn p_hat<const D: usize>(i: usize, v: &View<D>, p: &[f64], carries: &[bool], re: f64) -> f64 {
+    // The pairs of `v.pairs(i, re)` without their geometry (a minimum: any order).
+    let xi = v.pos[i];
     let mut m = p[i];
-    for q in v.pairs(i, re) {
-        if carries[q.j] {
-            m = m.min(p[q.j]);
-        }
+    for &j in v.neighbors.for_radius(re).of(i) {
+        let j = j as usize;
+        let take = carries[j] & is_within((v.pos[j] - xi).norm2(), re);
+        m = if take { m.min(p[j]) } else { m };
     }
     m
 }

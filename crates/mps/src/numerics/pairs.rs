@@ -77,18 +77,24 @@ pub fn count_pairs<const D: usize>(
 ) -> usize {
     let nl = nl.for_radius(re);
     let xi = pos[i];
-    let (far, near) = (re * re * (1.0 + 1e-9), re * re * (1.0 - 1e-9));
     // Without a branch on the tests that pass and fail at random (only the rare rim case
     // branches to its square root).
     let mut count = 0;
     for &j in nl.of(i) {
         let j = j as usize;
-        let r2 = (pos[j] - xi).norm2();
-        let rim = (r2 >= near) & (r2 <= far);
-        let within = ((r2 > 0.0) & (r2 < near)) | (rim && r2.sqrt() < re);
-        count += (within & keep(j)) as usize;
+        count += (is_within((pos[j] - xi).norm2(), re) & keep(j)) as usize;
     }
     count
+}
+
+/// Whether a neighbour at squared distance `r2` (m^2) is a pair within `re` (m), `0 < r <
+/// re`, exactly as [`pair_with`] decides it: a square root only where `r2` lies within
+/// rounding of `re^2`.
+#[inline]
+pub fn is_within(r2: f64, re: f64) -> bool {
+    let (far, near) = (re * re * (1.0 + 1e-9), re * re * (1.0 - 1e-9));
+    let rim = (r2 >= near) & (r2 <= far);
+    ((r2 > 0.0) & (r2 < near)) | (rim && r2.sqrt() < re)
 }
 
 impl<const D: usize> View<'_, D> {

@@ -4,6 +4,7 @@
 //! was measured against the alternatives: docs/decisions.md, "Wall pressure".
 
 use super::kernel::Kernels;
+use super::pairs::is_within;
 use crate::particles::{Kind, Vector, View, NONE};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -115,10 +116,14 @@ pub fn wall_densities<const D: usize>(
             if v.kind[i] != Kind::Wall {
                 return v.density[i];
             }
-            let mut best = (k.lap.re * k.lap.re, v.density[i]);
-            for q in v.pairs(i, k.lap.re) {
-                if v.kind[q.j] == Kind::Fluid && q.r2 < best.0 {
-                    best = (q.r2, v.density[q.j]);
+            // The pairs of `v.pairs(i, re)` without their square roots and weights.
+            let (re, xi) = (k.lap.re, v.pos[i]);
+            let mut best = (re * re, v.density[i]);
+            for &j in v.neighbors.for_radius(re).of(i) {
+                let j = j as usize;
+                let r2 = (v.pos[j] - xi).norm2();
+                if v.kind[j] == Kind::Fluid && r2 < best.0 && is_within(r2, re) {
+                    best = (r2, v.density[j]);
                 }
             }
             best.1
