@@ -4,6 +4,8 @@
 //!
 //! Folders, dependencies pointing one way (each folder's module comment says what it owns
 //! and what it may not touch):
+//! - [`parallel`]: the step's helper worker and its spin-ended parallel loops; a leaf, used
+//!   by every folder;
 //! - [`particles`]: the particle fields (declared once), vectors, neighbour lists; a leaf;
 //! - [`linalg`]: sparse matrices, PCG, IC(0), AMG; a leaf;
 //! - [`numerics`]: kernel, the one pair loop, operators and every model of a scheme;
@@ -27,6 +29,7 @@ pub mod input;
 pub mod io;
 pub mod linalg;
 pub mod numerics;
+pub mod parallel;
 pub mod particles;
 pub mod run;
 pub mod simulation;

@@ -196,8 +196,8 @@ pub fn transpose<T: Stored>(a: &CsrMatrix<T>, ncols: usize) -> CsrMatrix<T> {
 const BUILD_ROWS: usize = 1024;
 
 /// Sizes an `n`-row matrix `out` in its own memory: its row offsets from each row's number
-/// of entries, `len(scratch, i)` (computed in parallel over pieces of [`BUILD_ROWS`] rows,
-/// each with a scratch from `init`), and its columns and values zeroed to fit.
+/// of entries, `len(scratch, i)` (computed in parallel, each piece of rows with a scratch
+/// from `init`), and its columns and values zeroed to fit.
 pub fn size_rows_into<S, T: Stored>(
     n: usize,
     out: &mut CsrMatrix<T>,
@@ -206,14 +206,7 @@ pub fn size_rows_into<S, T: Stored>(
 ) {
     out.row_ptr.clear();
     out.row_ptr.resize(n + 1, 0);
-    out.row_ptr[1..]
-        .par_chunks_mut(BUILD_ROWS)
-        .enumerate()
-        .for_each_init(&init, |s, (c, lens)| {
-            for (k, l) in lens.iter_mut().enumerate() {
-                *l = len(s, c * BUILD_ROWS + k);
-            }
-        });
+    crate::parallel::for_each_mut_init(&mut out.row_ptr[1..], &init, |s, i, l| *l = len(s, i));
     for i in 0..n {
         out.row_ptr[i + 1] += out.row_ptr[i];
     }

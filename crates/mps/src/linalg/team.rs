@@ -92,85 +92,12 @@ pub(crate) fn wait_for_no_team() {
     }
 }
 
-/// Idle rounds of a helper ([`with_helper`]) between two yields of its core (a few
-/// milliseconds).
-const HELPER_SPINS: u32 = 20_000;
-
-/// Sets its flag when dropped (also on unwinding).
-struct SetOnDrop<'a>(&'a AtomicBool);
-
-impl Drop for SetOnDrop<'_> {
-    fn drop(&mut self) {
-        self.0.store(true, Ordering::Release);
-    }
-}
-
-/// Clears its flag when dropped (also on unwinding): a team or helper no longer runs.
+/// Clears its flag when dropped (also on unwinding): a team no longer runs.
 struct Released<'a>(&'a AtomicBool);
 
 impl Drop for Released<'_> {
     fn drop(&mut self) {
         self.0.store(false, Ordering::Release);
-    }
-}
-
-/// Whether a helper ([`with_helper`]) runs in this process. One at a time: a worker that
-/// took a second work's helper while a piece of its own work waited below it on its stack
-/// would wait for that work forever.
-static HELPER_RUNNING: AtomicBool = AtomicBool::new(false);
-
-/// Runs `work` on this worker of the pool while another worker waits for its parallel
-/// loops' pieces in a spin loop, taking each as it appears, instead of going idle between
-/// them (where the pool's idle loop makes a system call per round: docs/decisions.md,
-/// "A helper for the step"). On one thread, outside a pool, or while another helper runs,
-/// `work` alone.
-///
-/// The helper is the first job `work`'s worker pushes, so it is stolen before any piece of
-/// `work` can be: no other worker holds a piece of `work` below the helper on its stack.
-/// `work`'s own worker may take it back while it waits (for a team's broadcast, say,
-/// before the other worker woke up): there the helper ends at once.
-pub fn with_helper<R: Send>(work: impl FnOnce() -> R + Send) -> R {
-    if rayon::current_num_threads() < 2
-        || rayon::current_thread_index().is_none()
-        || HELPER_RUNNING
-            .compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed)
-            .is_err()
-    {
-        return work();
-    }
-    let _running = Released(&HELPER_RUNNING);
-    let done = AtomicBool::new(false);
-    let owner = rayon::current_thread_index();
-    let (result, ()) = rayon::join(
-        || {
-            let _done = SetOnDrop(&done);
-            work()
-        },
-        || {
-            if rayon::current_thread_index() != owner {
-                help_until(&done)
-            }
-        },
-    );
-    result
-}
-
-/// Takes the pool's pending jobs (the other worker's pieces, a team's broadcast) until
-/// `done`, spinning between them and yielding the core only now and then.
-fn help_until(done: &AtomicBool) {
-    let mut idle = 0u32;
-    while !done.load(Ordering::Acquire) {
-        match rayon::yield_now() {
-            Some(rayon::Yield::Executed) => idle = 0,
-            _ => {
-                idle += 1;
-                if idle.is_multiple_of(HELPER_SPINS) {
-                    std::thread::yield_now();
-                } else {
-                    std::hint::spin_loop();
-                }
-            }
-        }
     }
 }
 
@@ -214,90 +141,7 @@ pub fn run_team(size: usize, work: impl Fn(&Member) + Sync) {
     });
 }
 
-/// A vector the members of a team share: each writes only where no other member reads or
-/// writes until the next barrier.
-pub struct Shared<T = f64> {
-    ptr: *mut T,
-    len: usize,
-}
-
-impl<T> Clone for Shared<T> {
-    fn clone(&self) -> Self {
-        *self
-    }
-}
-
-impl<T> Copy for Shared<T> {}
-
-// SAFETY: members touch disjoint parts between barriers (the callers' contract), and the
-// barrier orders their accesses.
-unsafe impl<T: Send> Send for Shared<T> {}
-// SAFETY: as above.
-unsafe impl<T: Send> Sync for Shared<T> {}
-
-impl<T> Shared<T> {
-    /// Shares `v` for the lifetime of the borrow the caller keeps.
-    pub fn new(v: &mut [T]) -> Shared<T> {
-        Shared {
-            ptr: v.as_mut_ptr(),
-            len: v.len(),
-        }
-    }
-
-    /// Entries `r`, to write.
-    ///
-    /// # Safety
-    /// No other member touches `r` until the next barrier, and the vector outlives the use.
-    #[allow(clippy::mut_from_ref)]
-    pub unsafe fn part(&self, r: Range<usize>) -> &mut [T] {
-        assert!(r.start <= r.end && r.end <= self.len);
-        std::slice::from_raw_parts_mut(self.ptr.add(r.start), r.end - r.start)
-    }
-
-    /// The whole vector, to read.
-    ///
-    /// # Safety
-    /// No member writes it until the next barrier.
-    pub unsafe fn all(&self) -> &[T] {
-        std::slice::from_raw_parts(self.ptr, self.len)
-    }
-
-    /// Entry `i`.
-    ///
-    /// # Safety
-    /// No member writes entry `i` meanwhile.
-    pub unsafe fn get(&self, i: usize) -> T
-    where
-        T: Copy,
-    {
-        assert!(i < self.len);
-        *self.ptr.add(i)
-    }
-
-    /// Sets entry `i` to `x`.
-    ///
-    /// # Safety
-    /// No other member reads or writes entry `i` until the next barrier.
-    pub unsafe fn set(&self, i: usize, x: T) {
-        assert!(i < self.len);
-        *self.ptr.add(i) = x;
-    }
-
-    /// The raw pointer, for passes whose members write disjoint scattered entries.
-    pub fn ptr(&self) -> *mut T {
-        self.ptr
-    }
-
-    /// Its length.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// True when empty.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-}
+pub use crate::parallel::Shared;
 
 /// Rows per block of a team's passes; dot products are summed block by block in block
 /// order, whatever the team's size, so every team gives the same sums.
@@ -364,14 +208,7 @@ pub(crate) unsafe fn residual(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A pool of two workers.
-    fn pool_of_two() -> rayon::ThreadPool {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap()
-    }
+    use crate::parallel::tests::pool_of_two;
 
     /// Two members each fill their half, meet, and then each reads the other's half: every
     /// round sees the other's writes of that round (a broken barrier shows a stale value).
@@ -465,47 +302,6 @@ mod tests {
         assert_eq!(parts, vec![0..3, 3..6, 6..10]);
     }
 
-    /// Work under a helper gives its result with its parallel loops done on both workers
-    /// (the helper takes their pieces), a team started inside it gets its members, a second
-    /// helper inside runs its work alone, and a panic in the work ends the helper and
-    /// reaches the caller instead of hanging.
-    #[test]
-    fn the_helper_takes_the_pieces_and_stops_with_the_work() {
-        use rayon::prelude::*;
-        let pool = pool_of_two();
-        let other = AtomicUsize::new(0);
-        let sum = pool.install(|| {
-            with_helper(|| {
-                let me = rayon::current_thread_index();
-                let inner = with_helper(|| 7u64);
-                // Pieces of a millisecond: long enough for the other worker to wake up.
-                let s: u64 = (0..200usize)
-                    .into_par_iter()
-                    .with_max_len(1)
-                    .map(|i| {
-                        std::thread::sleep(std::time::Duration::from_millis(1));
-                        if rayon::current_thread_index() != me {
-                            other.fetch_add(1, Ordering::Relaxed);
-                        }
-                        (i % 3) as u64
-                    })
-                    .sum();
-                s + inner
-            })
-        });
-        assert_eq!(sum, (0..200u64).map(|i| i % 3).sum::<u64>() + 7);
-        assert!(
-            other.load(Ordering::Relaxed) > 0,
-            "no piece ran on the helper"
-        );
-        let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            pool.install(|| with_helper(|| panic!("the work fails")))
-        }));
-        assert!(caught.is_err());
-        // The flag is free again: a later helper runs.
-        assert!(!HELPER_RUNNING.load(Ordering::Acquire));
-    }
-
     /// The stepping worker that takes its own helper back while it waits for a team (the
     /// other worker still asleep) goes on: a helper there would wait for the step it sits
     /// in. Run on a watchdog: a hang fails the test.
@@ -519,7 +315,7 @@ mod tests {
                 // Long enough for the other worker to fall asleep.
                 std::thread::sleep(std::time::Duration::from_millis(3));
                 met += pool.install(|| {
-                    with_helper(|| {
+                    crate::parallel::with_helper(|| {
                         let n = AtomicUsize::new(0);
                         run_team(2, |m| {
                             m.wait();

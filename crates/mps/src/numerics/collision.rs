@@ -11,8 +11,8 @@
 //! the plane through the wall particle nearest along it), that moves into it loses `(1 + e)`
 //! of that normal velocity, as against an immovable pair partner.
 
+use crate::parallel;
 use crate::particles::{Kind, Vector, View};
-use rayon::prelude::*;
 
 /// Collision model parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,19 +48,16 @@ pub fn collide<const D: usize>(
 ) -> u64 {
     vel.clear();
     vel.resize(v.pos.len(), Vector::zero());
-    let treated: u64 = vel
-        .par_iter_mut()
-        .enumerate()
-        .map(|(i, out)| {
-            if v.kind[i] != Kind::Fluid {
-                *out = v.vel[i];
-                return 0;
-            }
-            let (u, count) = collide_one(i, v, (dist, e, l0));
-            *out = u;
-            count
-        })
-        .sum();
+    let one = |i: usize, out: &mut Vector<D>| {
+        if v.kind[i] != Kind::Fluid {
+            *out = v.vel[i];
+            return 0;
+        }
+        let (u, count) = collide_one(i, v, (dist, e, l0));
+        *out = u;
+        count
+    };
+    let treated = parallel::for_each_mut_reduce(vel, 0u64, one, |a, b| a + b);
     treated / 2
 }
 

@@ -1,8 +1,8 @@
 //! Densities of pairs and of interfaces in multiphase flow (equations.md section 7).
 
 use super::kernel::Kernels;
+use crate::parallel;
 use crate::particles::{Kind, View};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// How the pair density `rho_ij` is formed from two particle densities.
@@ -30,17 +30,14 @@ impl DensityAverage {
 /// `rho~_i = (n0 rho_i + sum_j w_ij rho_j) / (n0 + sum_j w_ij)` over re_grad, dummies left out.
 pub fn smoothed_density<const D: usize>(v: &View<D>, k: &Kernels) -> Vec<f64> {
     let n0 = k.grad.n0;
-    (0..v.pos.len())
-        .into_par_iter()
-        .map(|i| {
-            let (mut sw, mut swr) = (n0, n0 * v.density[i]);
-            for q in v.pairs(i, k.grad.re) {
-                if v.kind[q.j] != Kind::Dummy {
-                    sw += q.w;
-                    swr += q.w * v.density[q.j];
-                }
+    parallel::map(v.pos.len(), |i| {
+        let (mut sw, mut swr) = (n0, n0 * v.density[i]);
+        for q in v.pairs(i, k.grad.re) {
+            if v.kind[q.j] != Kind::Dummy {
+                sw += q.w;
+                swr += q.w * v.density[q.j];
             }
-            swr / sw
-        })
-        .collect()
+        }
+        swr / sw
+    })
 }

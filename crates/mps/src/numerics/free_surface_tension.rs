@@ -38,8 +38,8 @@
 use super::interfacial_tension::TensionInput;
 use super::kernel::smooth_slope;
 use super::pairs::pairs;
+use crate::parallel;
 use crate::particles::{Matrix, Vector};
-use rayon::prelude::*;
 
 /// Colour gradients below this size times `1/l0` give no normal.
 const NORMAL_THRESHOLD: f64 = 0.05;
@@ -122,40 +122,33 @@ fn curvature<const D: usize>(inp: &TensionInput<D>, free: &[f64]) -> Vec<f64> {
         }
     }
     let threshold = NORMAL_THRESHOLD / inp.l0;
-    let normals: Vec<Option<Vector<D>>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let g = (tension(i) && band[i]).then(|| void_gradient(inp, i))?;
-            let m = g.norm();
-            (m > threshold).then(|| g * (1.0 / m))
-        })
-        .collect();
+    let normals: Vec<Option<Vector<D>>> = parallel::map(n, |i| {
+        let g = (tension(i) && band[i]).then(|| void_gradient(inp, i))?;
+        let m = g.norm();
+        (m > threshold).then(|| g * (1.0 / m))
+    });
     let normal = |i: usize| normals[i];
     // No surface the particles resolve is more curved than one particle's own disc.
     let most = MAX_CURVATURE / inp.l0;
-    let mut kappa: Vec<f64> = (0..n)
-        .into_par_iter()
-        .map(|i| normal(i).map_or(0.0, |m| -surface_divergence(inp, i, m, &normal)))
-        .map(|k| k.clamp(-most, most))
-        .collect();
+    let mut kappa: Vec<f64> = parallel::map(n, |i| {
+        let k = normal(i).map_or(0.0, |m| -surface_divergence(inp, i, m, &normal));
+        k.clamp(-most, most)
+    });
     let along = |i: usize| inp.surface[i] && normals[i].is_some();
     for _ in 0..SMOOTHING_PASSES {
-        kappa = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                if !along(i) {
-                    return 0.0;
+        kappa = parallel::map(n, |i| {
+            if !along(i) {
+                return 0.0;
+            }
+            let (mut sum, mut weight) = (kappa[i], 1.0);
+            for p in pairs(inp.pos, inp.nl, i, inp.re_near) {
+                if along(p.j) {
+                    sum += kappa[p.j] * p.w;
+                    weight += p.w;
                 }
-                let (mut sum, mut weight) = (kappa[i], 1.0);
-                for p in pairs(inp.pos, inp.nl, i, inp.re_near) {
-                    if along(p.j) {
-                        sum += kappa[p.j] * p.w;
-                        weight += p.w;
-                    }
-                }
-                sum / weight
-            })
-            .collect();
+            }
+            sum / weight
+        });
     }
     kappa
 }
@@ -214,64 +207,50 @@ pub fn particle_scale_tension<const D: usize>(
         pairs(inp.pos, inp.nl, i, reach)
             .filter(move |p| along(p.j) && inp.phase[p.j] == inp.phase[i])
     };
-    let count: Vec<f64> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            if along(i) {
-                neighbours(i).count() as f64
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let count: Vec<f64> = parallel::map(n, |i| {
+        if along(i) {
+            neighbours(i).count() as f64
+        } else {
+            0.0
+        }
+    });
     let scale = 4.0 * (D as f64 - 1.0) / (inp.l0 * inp.l0);
-    let string: Vec<Vector<D>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let mut s = Vector::zero();
-            if along(i) {
-                let c = scale * sigma(i) / density[i];
-                for p in neighbours(i) {
-                    s += p.xij * (c / (p.r * (count[i] + count[p.j])));
-                }
+    let string: Vec<Vector<D>> = parallel::map(n, |i| {
+        let mut s = Vector::zero();
+        if along(i) {
+            let c = scale * sigma(i) / density[i];
+            for p in neighbours(i) {
+                s += p.xij * (c / (p.r * (count[i] + count[p.j])));
             }
-            s
-        })
-        .collect();
-    let weight: Vec<f64> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            // Read only where the surface has tension.
-            if !along(i) {
-                return 1.0;
+        }
+        s
+    });
+    let weight: Vec<f64> = parallel::map(n, |i| {
+        // Read only where the surface has tension.
+        if !along(i) {
+            return 1.0;
+        }
+        let near = pairs(inp.pos, inp.nl, i, inp.re_near).filter(|p| along(p.j));
+        1.0 + near.map(|p| p.w).sum::<f64>()
+    });
+    Some(parallel::map(n, |i| {
+        if !along(i) {
+            return Vector::zero();
+        }
+        let mut mean = string[i] * (1.0 / weight[i]);
+        for p in pairs(inp.pos, inp.nl, i, inp.re_near) {
+            if along(p.j) {
+                mean += string[p.j] * (p.w / weight[p.j]);
             }
-            let near = pairs(inp.pos, inp.nl, i, inp.re_near).filter(|p| along(p.j));
-            1.0 + near.map(|p| p.w).sum::<f64>()
-        })
-        .collect();
-    Some(
-        (0..n)
-            .into_par_iter()
-            .map(|i| {
-                if !along(i) {
-                    return Vector::zero();
-                }
-                let mut mean = string[i] * (1.0 / weight[i]);
-                for p in pairs(inp.pos, inp.nl, i, inp.re_near) {
-                    if along(p.j) {
-                        mean += string[p.j] * (p.w / weight[p.j]);
-                    }
-                }
-                let g = void_gradient(inp, i);
-                let m2 = g.dot(&g);
-                if m2 > 0.0 {
-                    g * (g.dot(&(string[i] - mean)) / m2)
-                } else {
-                    Vector::zero()
-                }
-            })
-            .collect(),
-    )
+        }
+        let g = void_gradient(inp, i);
+        let m2 = g.dot(&g);
+        if m2 > 0.0 {
+            g * (g.dot(&(string[i] - mean)) / m2)
+        } else {
+            Vector::zero()
+        }
+    }))
 }
 
 #[cfg(test)]

@@ -15,8 +15,8 @@
 //! curvature is a second derivative).
 
 use super::pairs::pairs;
+use crate::parallel;
 use crate::particles::{Matrix, NeighborList, Vector};
-use rayon::prelude::*;
 
 /// Colour gradients below this size times `1/l0` give no normal (Morris 2000).
 const NORMAL_THRESHOLD: f64 = 0.05;
@@ -132,7 +132,7 @@ pub fn surface_force<const D: usize>(
     interfaces: &Interfaces,
 ) -> Vec<Vector<D>> {
     let par_map = |f: &(dyn Fn(usize) -> Vector<D> + Sync)| -> Vec<Vector<D>> {
-        (0..inp.pos.len()).into_par_iter().map(f).collect()
+        parallel::map(inp.pos.len(), f)
     };
     let mut total: Option<Vec<Vector<D>>> = None;
     // Each interface once: (a, b) with a < b.

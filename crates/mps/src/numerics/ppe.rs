@@ -20,12 +20,10 @@ use super::scheme::Scheme;
 use super::source::source;
 use super::surface_pressure::{dirichlet_values_into, SurfacePressure};
 use super::walls::WallPressure;
+use crate::linalg::team::Shared;
 use crate::linalg::CsrMatrix;
+use crate::parallel;
 use crate::particles::{Kind, Vector, View, NONE};
-use rayon::prelude::*;
-
-/// Rows per chunk of the parallel assembly (docs/decisions.md, "Parallel chunk sizes").
-const CHUNK: usize = 256;
 
 /// The assembled PPE.
 #[derive(Clone, Debug, Default)]
@@ -200,37 +198,39 @@ thread_local! {
     static ENTRIES: std::cell::RefCell<Vec<(u32, f64)>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// Rows `first..first + rhs.len()` of `particle_of` written into their place: `col` and `val`
-/// hold exactly their entries (offsets from `row_ptr`), `rhs` their right-hand sides. Split
-/// in halves of whole chunks, in parallel.
+/// Every row of `particle_of` written into its place: `col` and `val`
+/// hold exactly their entries (offsets from `row_ptr`), `rhs` their right-hand sides; in
+/// parallel over pieces of rows.
 fn fill_rows<const D: usize>(
+    ctx: &Rows<D>,
+    particle_of: &[u32],
+    row_ptr: &[u32],
+    (col, val, rhs): (&mut [u32], &mut [f64], &mut [f64]),
+) {
+    let (cols, vals, rhss) = (Shared::new(col), Shared::new(val), Shared::new(rhs));
+    parallel::for_ranges(rhs.len(), |rows| {
+        let (lo, hi) = (row_ptr[rows.start] as usize, row_ptr[rows.end] as usize);
+        // SAFETY: the pieces' rows, and so their entries, are disjoint.
+        let (col, val, rhs) = unsafe {
+            (
+                cols.part(lo..hi),
+                vals.part(lo..hi),
+                rhss.part(rows.clone()),
+            )
+        };
+        write_rows(ctx, particle_of, row_ptr, rows.start, (col, val, rhs));
+    });
+}
+
+/// Rows `first..` (as many as `rhs` holds) of `particle_of` written into their entries
+/// `col`, `val` (from row `first`'s offset on) and right-hand sides `rhs`.
+fn write_rows<const D: usize>(
     ctx: &Rows<D>,
     particle_of: &[u32],
     row_ptr: &[u32],
     first: usize,
     (col, val, rhs): (&mut [u32], &mut [f64], &mut [f64]),
 ) {
-    let rows = rhs.len();
-    if rows > CHUNK {
-        let mid = rows.div_ceil(CHUNK) / 2 * CHUNK;
-        let at = (row_ptr[first + mid] - row_ptr[first]) as usize;
-        let (col_a, col_b) = col.split_at_mut(at);
-        let (val_a, val_b) = val.split_at_mut(at);
-        let (rhs_a, rhs_b) = rhs.split_at_mut(mid);
-        rayon::join(
-            || fill_rows(ctx, particle_of, row_ptr, first, (col_a, val_a, rhs_a)),
-            || {
-                fill_rows(
-                    ctx,
-                    particle_of,
-                    row_ptr,
-                    first + mid,
-                    (col_b, val_b, rhs_b),
-                )
-            },
-        );
-        return;
-    }
     ENTRIES.with_borrow_mut(|entries| {
         let base = row_ptr[first] as usize;
         for (k, b) in rhs.iter_mut().enumerate() {
@@ -262,7 +262,7 @@ fn assemble_rows<const D: usize>(ctx: &Rows<D>, particle_of: &[u32], sys: &mut P
     sys.rhs.clear();
     sys.rhs.resize(rows, 0.0);
     let parts = (&mut m.col[..], &mut m.val[..], &mut sys.rhs[..]);
-    fill_rows(ctx, particle_of, &m.row_ptr, 0, parts);
+    fill_rows(ctx, particle_of, &m.row_ptr, parts);
 }
 
 /// [`assemble_rows`] on one thread: each row appended to the matrix in turn, so its
@@ -318,10 +318,7 @@ pub fn assemble_into<const D: usize>(
 ) {
     let n = v.pos.len();
     let mut dirichlet = std::mem::take(&mut sys.no_row);
-    (0..n)
-        .into_par_iter()
-        .map(|i| is_dirichlet(i, v, k.lap.re))
-        .collect_into_vec(&mut dirichlet);
+    parallel::map_into(&mut dirichlet, n, |i| is_dirichlet(i, v, k.lap.re));
     let closed =
         !reference.open_elsewhere && !(0..n).any(|i| dirichlet[i] && v.kind[i] != Kind::Dummy);
     let level_particle: Option<u32> = match (closed, reference.at) {
@@ -577,7 +574,7 @@ mod tests {
                 gravity: g,
                 dt,
             };
-            assert!(sys.particle_of.len() > 3 * CHUNK);
+            assert!(sys.particle_of.len() > 100, "several pieces of rows");
             let mut entries = Vec::new();
             for (row, &i) in sys.particle_of.iter().enumerate() {
                 let b = ctx.assemble(i as usize, row as u32, &mut entries);

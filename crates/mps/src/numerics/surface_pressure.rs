@@ -35,8 +35,8 @@
 //! the water along the wall (docs/decisions.md, "The free surface at the particles' edge").
 
 use super::kernel::{weight, Kernels};
+use crate::parallel;
 use crate::particles::{Kind, Vector, View};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Where the free-surface Dirichlet condition `p = 0` is placed.
@@ -90,22 +90,19 @@ pub fn dirichlet_values_into<const D: usize>(
     (edge, levels): (f64, &[f64]),
     out: &mut Vec<f64>,
 ) {
-    (0..v.pos.len())
-        .into_par_iter()
-        .map(|i| {
-            // Only free-surface fluid particles have a value (and pay for its three
-            // neighbour passes).
-            if v.kind[i] != Kind::Fluid || !v.free_surface[i] {
-                return 0.0;
-            }
-            let level = levels.get(i).copied().unwrap_or(0.0);
-            match mean_surface_value(i, v, previous, k, (edge, level)) {
-                Some(p) => p,
-                None if edge > 0.0 => f64::NAN,
-                None => 0.0,
-            }
-        })
-        .collect_into_vec(out);
+    parallel::map_into(out, v.pos.len(), |i| {
+        // Only free-surface fluid particles have a value (and pay for its three
+        // neighbour passes).
+        if v.kind[i] != Kind::Fluid || !v.free_surface[i] {
+            return 0.0;
+        }
+        let level = levels.get(i).copied().unwrap_or(0.0);
+        match mean_surface_value(i, v, previous, k, (edge, level)) {
+            Some(p) => p,
+            None if edge > 0.0 => f64::NAN,
+            None => 0.0,
+        }
+    });
     if edge > 0.0 {
         fill_contact_lines(v, k, out);
     }

@@ -5,8 +5,8 @@
 
 use super::kernel::Kernels;
 use super::pairs::is_within;
+use crate::parallel;
 use crate::particles::{Kind, Vector, View, NONE};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Wall treatment in the PPE and the gradient (docs/decisions.md, "Wall pressure").
@@ -72,27 +72,24 @@ pub fn boundary_pressures<const D: usize>(
         WallPressure::Hydrostatic => v.kind[i] == Kind::Dummy && backing_wall[i] != NONE,
         WallPressure::None => false,
     };
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let carried = v.kind[i] != Kind::Dummy || model != WallPressure::None;
-            if !boundary(i) {
-                return (0.0, carried);
+    parallel::unzip_into(values, carries, n, |i| {
+        let carried = v.kind[i] != Kind::Dummy || model != WallPressure::None;
+        if !boundary(i) {
+            return (0.0, carried);
+        }
+        match model {
+            WallPressure::Extrapolated => {
+                let e = extrapolated_pressure(i, v, solved, gravity, k.lap.re);
+                let (p, carried) = e.map_or((0.0, false), |p| (p, closed || p > 0.0));
+                (if closed { p } else { p.max(0.0) }, carried)
             }
-            match model {
-                WallPressure::Extrapolated => {
-                    let e = extrapolated_pressure(i, v, solved, gravity, k.lap.re);
-                    let (p, carried) = e.map_or((0.0, false), |p| (p, closed || p > 0.0));
-                    (if closed { p } else { p.max(0.0) }, carried)
-                }
-                _ => {
-                    let w = backing_wall[i] as usize;
-                    let p = solved[w] + v.density[i] * gravity.dot(&(v.pos[i] - v.pos[w]));
-                    (if clamp { p.max(0.0) } else { p }, carried)
-                }
+            _ => {
+                let w = backing_wall[i] as usize;
+                let p = solved[w] + v.density[i] * gravity.dot(&(v.pos[i] - v.pos[w]));
+                (if clamp { p.max(0.0) } else { p }, carried)
             }
-        })
-        .unzip_into_vecs(values, carries);
+        }
+    });
     for i in 0..n {
         if boundary(i) {
             pressure[i] = values[i];
@@ -110,25 +107,22 @@ pub fn wall_densities<const D: usize>(
     walls: &mut Vec<f64>,
     out: &mut Vec<f64>,
 ) {
-    (0..v.pos.len())
-        .into_par_iter()
-        .map(|i| {
-            if v.kind[i] != Kind::Wall {
-                return v.density[i];
+    parallel::map_into(walls, v.pos.len(), |i| {
+        if v.kind[i] != Kind::Wall {
+            return v.density[i];
+        }
+        // The pairs of `v.pairs(i, re)` without their square roots and weights.
+        let (re, xi) = (k.lap.re, v.pos[i]);
+        let mut best = (re * re, v.density[i]);
+        for &j in v.neighbors.for_radius(re).of(i) {
+            let j = j as usize;
+            let r2 = (v.pos[j] - xi).norm2();
+            if v.kind[j] == Kind::Fluid && r2 < best.0 && is_within(r2, re) {
+                best = (r2, v.density[j]);
             }
-            // The pairs of `v.pairs(i, re)` without their square roots and weights.
-            let (re, xi) = (k.lap.re, v.pos[i]);
-            let mut best = (re * re, v.density[i]);
-            for &j in v.neighbors.for_radius(re).of(i) {
-                let j = j as usize;
-                let r2 = (v.pos[j] - xi).norm2();
-                if v.kind[j] == Kind::Fluid && r2 < best.0 && is_within(r2, re) {
-                    best = (r2, v.density[j]);
-                }
-            }
-            best.1
-        })
-        .collect_into_vec(walls);
+        }
+        best.1
+    });
     out.clear();
     out.extend((0..v.pos.len()).map(|i| match v.kind[i] {
         Kind::Dummy if backing_wall[i] != NONE => walls[backing_wall[i] as usize],

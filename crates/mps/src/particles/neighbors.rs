@@ -5,7 +5,7 @@
 //! while particles move less than half the skin; every operator filters by its own radius.
 
 use super::vector::Vector;
-use rayon::prelude::*;
+use crate::parallel::{self, Shared};
 
 /// Neighbour lists of all particles: particle `i`'s neighbours are `indices[spans[i][0]..
 /// spans[i][1]]`. The lists are built by chunks of particles in parallel, each chunk into its
@@ -123,10 +123,7 @@ impl NeighborList {
                 estimate(a, b)
             }
         };
-        (0..chunks)
-            .into_par_iter()
-            .map(sizes)
-            .collect_into_vec(&mut regions);
+        parallel::map_into(&mut regions, chunks, sizes);
         let mut total = 0;
         for r in regions.iter_mut() {
             (*r, total) = (total, total + *r);
@@ -216,7 +213,7 @@ impl ChunkSink<'_> {
 
 /// Runs `fill` over the chunks `first..` whose regions start at `starts[..k]` (absolute,
 /// `starts[k]` the end; `indices` the slice from `starts[0]` to it, `spans` their particles),
-/// halving the chunks onto the pool's threads.
+/// in parallel over the chunks.
 fn fill_regions(
     first: usize,
     starts: &[usize],
@@ -224,30 +221,23 @@ fn fill_regions(
     spans: &mut [[u32; 2]],
     fill: &(impl Fn(usize, &mut ChunkSink) + Sync),
 ) {
-    let k = starts.len() - 1;
-    if k > 1 {
-        let m = k / 2;
-        let (ia, ib) = indices.split_at_mut(starts[m] - starts[0]);
-        let (sa, sb) = spans.split_at_mut((m * CHUNK).min(spans.len()));
-        rayon::join(
-            || fill_regions(first, &starts[..=m], ia, sa, fill),
-            || fill_regions(first + m, &starts[m..], ib, sb, fill),
-        );
-        return;
-    }
-    if k == 0 {
-        return;
-    }
-    let (a, base) = (first * CHUNK, starts[0]);
-    let mut sink = ChunkSink {
-        region: indices,
-        len: 0,
-    };
-    for (k, span) in spans.iter_mut().enumerate() {
-        let start = sink.len;
-        fill(a + k, &mut sink);
-        *span = [(base + start) as u32, (base + sink.len) as u32];
-    }
+    let (shared_indices, shared_spans) = (Shared::new(indices), Shared::new(spans));
+    let n = shared_spans.len();
+    parallel::for_ranges_by(starts.len() - 1, 1, |chunks| {
+        for c in chunks {
+            let (lo, hi) = (starts[c] - starts[0], starts[c + 1] - starts[0]);
+            let rows = (c * CHUNK).min(n)..((c + 1) * CHUNK).min(n);
+            let a = (first + c) * CHUNK;
+            // SAFETY: the chunks' regions and spans are disjoint.
+            let (region, spans) = unsafe { (shared_indices.part(lo..hi), shared_spans.part(rows)) };
+            let mut sink = ChunkSink { region, len: 0 };
+            for (k, span) in spans.iter_mut().enumerate() {
+                let start = sink.len;
+                fill(a + k, &mut sink);
+                *span = [(starts[c] + start) as u32, (starts[c] + sink.len) as u32];
+            }
+        }
+    });
 }
 
 /// Particles per parallel work unit of the list builders (docs/decisions.md, "Parallel chunk
@@ -311,14 +301,15 @@ impl<const D: usize> CellGrid<D> {
         bounds: Option<(Vector<D>, Vector<D>)>,
     ) {
         let far = (Vector([f64::MAX; D]), Vector([f64::MIN; D]));
-        let (mut lo, mut hi) = points
-            .par_iter()
-            .filter(|p| p.is_finite())
-            .fold(|| far, |(lo, hi), p| (lo.min(p), hi.max(p)))
-            .reduce(
-                || far,
-                |(lo_a, hi_a), (lo_b, hi_b)| (lo_a.min(&lo_b), hi_a.max(&hi_b)),
-            );
+        let bounds_of = |i: usize| match points[i].is_finite() {
+            true => (points[i], points[i]),
+            false => far,
+        };
+        let widest = |(lo_a, hi_a): (Vector<D>, Vector<D>),
+                      (lo_b, hi_b): (Vector<D>, Vector<D>)| {
+            (lo_a.min(&lo_b), hi_a.max(&hi_b))
+        };
+        let (mut lo, mut hi) = parallel::map_reduce(points.len(), far, bounds_of, widest);
         if let Some((blo, bhi)) = bounds {
             lo = lo.max(&blo);
             hi = hi.min(&bhi);
@@ -341,10 +332,7 @@ impl<const D: usize> CellGrid<D> {
         (self.origin, self.cell, self.dims) = (lo, cell, dims);
         let ncell: usize = dims.iter().product();
         let mut keys = std::mem::take(&mut self.keys);
-        points
-            .par_iter()
-            .map(|p| self.cell_of(p) as u32)
-            .collect_into_vec(&mut keys);
+        parallel::map_into(&mut keys, points.len(), |i| self.cell_of(&points[i]) as u32);
         let count = &mut self.start;
         count.clear();
         count.resize(ncell + 1, 0);
@@ -363,10 +351,10 @@ impl<const D: usize> CellGrid<D> {
             self.next[k as usize] += 1;
         }
         self.keys = keys;
-        self.sorted
-            .par_iter()
-            .map(|&i| points[i as usize])
-            .collect_into_vec(&mut self.sorted_points);
+        let sorted = &self.sorted;
+        parallel::map_into(&mut self.sorted_points, sorted.len(), |k| {
+            points[sorted[k] as usize]
+        });
     }
 
     #[inline]
@@ -403,13 +391,10 @@ impl<const D: usize> CellGrid<D> {
     fn mark_cells_holding(&mut self, marked: &[bool]) {
         let ncell = self.start.len() - 1;
         let mut holding = std::mem::take(&mut self.holding);
-        (0..ncell)
-            .into_par_iter()
-            .map(|c| {
-                let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
-                self.sorted[a..b].iter().any(|&i| marked[i as usize])
-            })
-            .collect_into_vec(&mut holding);
+        parallel::map_into(&mut holding, ncell, |c| {
+            let (a, b) = (self.start[c] as usize, self.start[c + 1] as usize);
+            self.sorted[a..b].iter().any(|&i| marked[i as usize])
+        });
         self.holding = holding;
     }
 

@@ -1,8 +1,8 @@
 //! Breakdown: when a run stops being physical (cases.md, "Breakdown"), and the checks of a
 //! new state that decide it.
 
+use crate::parallel;
 use crate::particles::{Kind, Particles, Vector};
-use rayon::prelude::*;
 use std::fmt;
 
 /// Why a run broke down.
@@ -172,19 +172,17 @@ pub fn check_state<const D: usize>(
     };
     // One pass: whether every entry is finite, whether a fluid particle left the box, and
     // the largest fluid speed (each a breakdown reason, tested in this order below).
-    let (all_finite, any_outside, umax) = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let u = match p.kind[i] == Kind::Fluid {
-                true => vel[i].norm(),
-                false => 0.0,
-            };
-            (finite(i), outside(i), u)
-        })
-        .reduce(
-            || (true, false, 0.0),
-            |a, b| (a.0 && b.0, a.1 || b.1, f64::max(a.2, b.2)),
-        );
+    let flags = |i: usize| {
+        let u = match p.kind[i] == Kind::Fluid {
+            true => vel[i].norm(),
+            false => 0.0,
+        };
+        (finite(i), outside(i), u)
+    };
+    let (all_finite, any_outside, umax) =
+        parallel::map_reduce(n, (true, false, 0.0), flags, |a, b| {
+            (a.0 && b.0, a.1 || b.1, f64::max(a.2, b.2))
+        });
     if !all_finite {
         return Err(Failure {
             reason: BreakdownReason::NotFinite,

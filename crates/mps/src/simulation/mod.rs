@@ -240,7 +240,7 @@ impl<const D: usize> Simulation<D> {
     pub fn step(&mut self, until: f64) -> Result<StepReport, Breakdown> {
         self.undo = Undo::default();
         // The pool's other worker waits for the step's parallel pieces by spinning.
-        match crate::linalg::team::with_helper(|| self.advance(until)) {
+        match crate::parallel::with_helper(|| self.advance(until)) {
             Ok(r) => {
                 self.solver.commit();
                 self.last = r;
@@ -456,16 +456,11 @@ impl<const D: usize> Simulation<D> {
         out: &mut NeighborList,
     ) {
         let kind = &self.particles.kind;
-        use rayon::prelude::*;
         let NeighborSearch {
             grid, fluid, dummy, ..
         } = search;
-        kind.par_iter()
-            .map(|k| *k == Kind::Fluid)
-            .collect_into_vec(fluid);
-        kind.par_iter()
-            .map(|k| *k == Kind::Dummy)
-            .collect_into_vec(dummy);
+        crate::parallel::map_into(fluid, kind.len(), |i| kind[i] == Kind::Fluid);
+        crate::parallel::map_into(dummy, kind.len(), |i| kind[i] == Kind::Dummy);
         let needs = crate::particles::neighbors::ListNeeds {
             moving: fluid,
             apart: dummy,
@@ -495,16 +490,12 @@ impl<const D: usize> Simulation<D> {
     /// The largest distance (m) a particle of `pos` lies from where the neighbour lists
     /// were built (infinite when they must be built afresh).
     fn moved_since_lists(&self, pos: &[Vector<D>]) -> f64 {
-        use rayon::prelude::*;
         let built = &self.lists_built_at;
         if built.len() != pos.len() {
             return f64::INFINITY;
         }
-        (0..pos.len())
-            .into_par_iter()
-            .map(|i| (pos[i] - built[i]).norm2())
-            .reduce(|| 0.0, f64::max)
-            .sqrt()
+        let moved = |i: usize| (pos[i] - built[i]).norm2();
+        crate::parallel::map_reduce(pos.len(), 0.0, moved, f64::max).sqrt()
     }
 
     /// Recomputes number density, free-surface flags and wall pressures at the current

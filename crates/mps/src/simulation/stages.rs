@@ -16,8 +16,8 @@ use crate::numerics::shifting::shift;
 use crate::numerics::stabilization::{ds_acceleration, DsVelocity};
 use crate::numerics::surface::{detect, SurfaceInput};
 use crate::numerics::walls::{boundary_pressures, wall_densities};
+use crate::parallel;
 use crate::particles::{Kind, Vector, View, NONE};
-use rayon::prelude::*;
 
 /// Steps between reorderings of the particles along the cell list (memory locality; the
 /// AMG hierarchy is rebuilt after each: docs/decisions.md, "Reordering").
@@ -129,30 +129,28 @@ impl<const D: usize> Simulation<D> {
             pos: self.spare.take(),
             vel: self.spare.take(),
         };
-        (0..p.len())
-            .into_par_iter()
-            .map(|i| {
-                if p.kind[i] != Kind::Fluid {
-                    return (p.velocity[i], p.position[i]);
-                }
-                let nu = self.phase_viscosity[p.phase[i] as usize];
-                let mut a = g;
-                if nu > 0.0 {
-                    a += laplacian_vector(i, &p.position, &p.velocity, &self.neighbors, k) * nu;
-                }
-                if let Some(t) = &tension {
-                    a += t[i];
-                }
-                if let Some(t) = &string {
-                    a += t[i];
-                }
-                if let Some(r) = &self.scheme.interface_repulsion {
-                    a += interface_repulsion(i, &at_r, &p.phase, &self.kernels, r);
-                }
-                let u = p.velocity[i] + a * dt;
-                (u, p.position[i] + u * dt)
-            })
-            .unzip_into_vecs(&mut pred.vel, &mut pred.pos);
+        let (vel, pos) = (&mut pred.vel, &mut pred.pos);
+        parallel::unzip_into(vel, pos, p.len(), |i| {
+            if p.kind[i] != Kind::Fluid {
+                return (p.velocity[i], p.position[i]);
+            }
+            let nu = self.phase_viscosity[p.phase[i] as usize];
+            let mut a = g;
+            if nu > 0.0 {
+                a += laplacian_vector(i, &p.position, &p.velocity, &self.neighbors, k) * nu;
+            }
+            if let Some(t) = &tension {
+                a += t[i];
+            }
+            if let Some(t) = &string {
+                a += t[i];
+            }
+            if let Some(r) = &self.scheme.interface_repulsion {
+                a += interface_repulsion(i, &at_r, &p.phase, &self.kernels, r);
+            }
+            let u = p.velocity[i] + a * dt;
+            (u, p.position[i] + u * dt)
+        });
         pred
     }
 
@@ -216,18 +214,17 @@ impl<const D: usize> Simulation<D> {
         // On one process the lists may date from an earlier step (`update_neighbors`): the
         // largest moves since this step's start and since the lists, in one pass.
         let since_lists = !self.is_distributed() && built.len() == old.len();
-        let (max_move, since) = (0..pred.pos.len())
-            .into_par_iter()
-            .map(|i| {
-                let x = pred.pos[i];
-                let b = if since_lists {
-                    (x - built[i]).norm2()
-                } else {
-                    0.0
-                };
-                ((x - old[i]).norm(), b)
-            })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+        let moves = |i: usize| {
+            let x = pred.pos[i];
+            let b = if since_lists {
+                (x - built[i]).norm2()
+            } else {
+                0.0
+            };
+            ((x - old[i]).norm(), b)
+        };
+        let larger = |a: (f64, f64), b: (f64, f64)| (a.0.max(b.0), a.1.max(b.1));
+        let (max_move, since) = parallel::map_reduce(pred.pos.len(), (0.0, 0.0), moves, larger);
         let max_move = self.max(max_move);
         if !max_move.is_finite() {
             return Err(BreakdownReason::NotFinite.into());
@@ -300,18 +297,22 @@ impl<const D: usize> Simulation<D> {
         let (kind, owned, nl) = (&self.particles.kind, self.owned(), &self.neighbors);
         let radii = (re, 0.9 * self.l0());
         // The pair metrics of the own fluid particles from the same pairs.
-        let closest = (nd.par_iter_mut().enumerate())
-            .map(|(i, n)| {
-                if kind[i] != Kind::Fluid || i >= owned {
-                    *n = number_density(i, pos, nl, re);
-                    return (f64::INFINITY, 0);
-                }
-                let counts = |j: usize| kind[j] != Kind::Fluid || i < j;
-                let (sum, m, c) = number_density_and_closest(i, pos, nl, radii, counts);
-                *n = sum;
-                (m, c)
-            })
-            .reduce(|| (f64::INFINITY, 0), |a, b| (a.0.min(b.0), a.1 + b.1));
+        let density_and_closest = |i: usize, n: &mut f64| {
+            if kind[i] != Kind::Fluid || i >= owned {
+                *n = number_density(i, pos, nl, re);
+                return (f64::INFINITY, 0);
+            }
+            let counts = |j: usize| kind[j] != Kind::Fluid || i < j;
+            let (sum, m, c) = number_density_and_closest(i, pos, nl, radii, counts);
+            *n = sum;
+            (m, c)
+        };
+        let closest = parallel::for_each_mut_reduce(
+            &mut nd,
+            (f64::INFINITY, 0),
+            density_and_closest,
+            |a, b| (a.0.min(b.0), a.1 + b.1),
+        );
         let input = SurfaceInput {
             pos,
             neighbors: &self.neighbors,
@@ -536,22 +537,19 @@ impl<const D: usize> Simulation<D> {
             None => (usize::MAX, 0.0),
         };
         let mut pressure = self.spare.take();
-        (0..sys.row_of.len())
-            .into_par_iter()
-            .map(|i| {
-                let p = match sys.row_of[i] {
-                    NONE if i == reference => offset,
-                    NONE => sys.dirichlet_value.get(i).copied().unwrap_or(0.0),
-                    r if sys.level.is_some() => x[r as usize] + offset,
-                    r => x[r as usize],
-                };
-                if clamp {
-                    p.max(0.0)
-                } else {
-                    p
-                }
-            })
-            .collect_into_vec(&mut pressure);
+        parallel::map_into(&mut pressure, sys.row_of.len(), |i| {
+            let p = match sys.row_of[i] {
+                NONE if i == reference => offset,
+                NONE => sys.dirichlet_value.get(i).copied().unwrap_or(0.0),
+                r if sys.level.is_some() => x[r as usize] + offset,
+                r => x[r as usize],
+            };
+            if clamp {
+                p.max(0.0)
+            } else {
+                p
+            }
+        });
         self.spare.give(x);
         // Kept: the next step assembles into its memory (docs/decisions.md, "Reused PPE
         // buffers"), and benchmarks read it.
@@ -626,22 +624,16 @@ impl<const D: usize> Simulation<D> {
         let n = pred.pos.len();
         let mut ph = self.spare.take();
         if s.gradient.model != GradientModel::Taylor {
-            (0..n)
-                .into_par_iter()
-                .map(|i| p_hat(i, &v, pressure, carries, k.grad.re))
-                .collect_into_vec(&mut ph);
+            parallel::map_into(&mut ph, n, |i| p_hat(i, &v, pressure, carries, k.grad.re));
         }
         let mut acc = self.spare.take();
-        (0..n)
-            .into_par_iter()
-            .map(|i| {
-                if v.kind[i] == Kind::Fluid {
-                    pressure_acceleration(i, &vc, pressure, &ph, carries, k, &s.gradient)
-                } else {
-                    Vector::zero()
-                }
-            })
-            .collect_into_vec(&mut acc);
+        parallel::map_into(&mut acc, n, |i| {
+            if v.kind[i] == Kind::Fluid {
+                pressure_acceleration(i, &vc, pressure, &ph, carries, k, &s.gradient)
+            } else {
+                Vector::zero()
+            }
+        });
         self.spare.give(ph);
         self.spare.give(carried);
         acc
@@ -668,7 +660,7 @@ impl<const D: usize> Simulation<D> {
         let inelastic = ds.velocity == DsVelocity::Inelastic;
         dv.resize(if inelastic { n } else { 0 }, Vector::zero());
         // Active pairs counted over the own particles (an integer sum: any order).
-        let count = |(i, ai): (usize, &mut Vector<D>), dvi: Option<&mut Vector<D>>| {
+        let count = |i: usize, ai: &mut Vector<D>, dvi: Option<&mut Vector<D>>| {
             if v.kind[i] != Kind::Fluid {
                 return 0;
             }
@@ -683,13 +675,12 @@ impl<const D: usize> Simulation<D> {
                 0
             }
         };
+        let add = |x: u64, y: u64| x + y;
         let active = if inelastic {
-            (a.par_iter_mut().enumerate())
-                .zip(dv.par_iter_mut())
-                .map(|(ia, d)| count(ia, Some(d)))
-                .sum()
+            let with_dv = |i, ai: &mut _, d: &mut _| count(i, ai, Some(d));
+            parallel::for_each_mut2_reduce(&mut a, &mut dv, 0, with_dv, add)
         } else {
-            a.par_iter_mut().enumerate().map(|ia| count(ia, None)).sum()
+            parallel::for_each_mut_reduce(&mut a, 0, |i, ai| count(i, ai, None), add)
         };
         let dvel = inelastic.then_some(dv);
         (Some(DsArrays { acc: a, dvel }), active)
@@ -706,19 +697,18 @@ impl<const D: usize> Simulation<D> {
     ) -> Option<Vec<Vector<D>>> {
         let s = self.scheme.shifting?;
         let kind = &self.particles.kind;
-        let u_max = (0..self.owned())
-            .into_par_iter()
-            .filter(|&i| kind[i] == Kind::Fluid)
-            .map(|i| pred.vel[i].norm())
-            .reduce(|| 0.0, f64::max);
+        let speed = |i: usize| match kind[i] {
+            Kind::Fluid => pred.vel[i].norm(),
+            _ => 0.0,
+        };
+        let u_max = parallel::map_reduce(self.owned(), 0.0, speed, f64::max);
         let travel = self.max(u_max) * dt;
         let v = self.view_of(&pred.pos, &pred.vel, Some(surf), None);
         let phase = &self.particles.phase;
         let mut shifts = self.spare.take();
-        (0..pred.pos.len())
-            .into_par_iter()
-            .map(|i| shift(i, &v, phase, &self.kernels, &s, travel))
-            .collect_into_vec(&mut shifts);
+        parallel::map_into(&mut shifts, pred.pos.len(), |i| {
+            shift(i, &v, phase, &self.kernels, &s, travel)
+        });
         Some(shifts)
     }
 
@@ -745,13 +735,11 @@ impl<const D: usize> Simulation<D> {
             return 0;
         }
         let p = &self.particles;
-        let keep: Vec<bool> = (0..p.len())
-            .into_par_iter()
-            .map(|i| {
-                let x = p.position[i];
-                p.kind[i] != Kind::Fluid || (0..D).all(|k| x[k] >= lim.lo[k] && x[k] <= lim.hi[k])
-            })
-            .collect();
+        let mut keep = Vec::new();
+        parallel::map_into(&mut keep, p.len(), |i| {
+            let x = p.position[i];
+            p.kind[i] != Kind::Fluid || (0..D).all(|k| x[k] >= lim.lo[k] && x[k] <= lim.hi[k])
+        });
         // On several processes: each removes its own and its halo's leavers alike (the same
         // positions), and counts its own.
         let own = self.owned();
@@ -788,24 +776,23 @@ impl<const D: usize> Simulation<D> {
         // u = u* + dt a, r = r* + dt^2 a (+ shift), written over u* and r* (no new vectors).
         let Predicted { mut pos, mut vel } = pred;
         let p = &self.particles;
-        pos.par_iter_mut()
-            .zip(vel.par_iter_mut())
-            .enumerate()
-            .filter(|(i, _)| p.kind[*i] == Kind::Fluid)
-            .for_each(|(i, (x, u))| {
-                let a = match ds {
-                    Some(ds) => acc[i] + ds.acc[i],
-                    None => acc[i],
-                };
-                *x += a * (dt * dt);
-                if let Some(d) = shifts {
-                    *x += d[i];
-                }
-                match ds.and_then(|d| d.dvel.as_deref()) {
-                    Some(dv) => *u += acc[i] * dt + dv[i],
-                    None => *u += a * dt,
-                }
-            });
+        parallel::for_each_mut2(&mut pos, &mut vel, |i, x, u| {
+            if p.kind[i] != Kind::Fluid {
+                return;
+            }
+            let a = match ds {
+                Some(ds) => acc[i] + ds.acc[i],
+                None => acc[i],
+            };
+            *x += a * (dt * dt);
+            if let Some(d) = shifts {
+                *x += d[i];
+            }
+            match ds.and_then(|d| d.dvel.as_deref()) {
+                Some(dv) => *u += acc[i] * dt + dv[i],
+                None => *u += a * dt,
+            }
+        });
         let own = self.owned();
         let (o_pos, o_vel, o_p) = (&pos[..own], &vel[..own], &pressure[..own]);
         let mut result = check_state(p, o_pos, o_vel, o_p, min_pair, &lim);

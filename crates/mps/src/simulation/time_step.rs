@@ -5,8 +5,8 @@ use super::breakdown::BreakdownReason;
 use super::Simulation;
 use crate::error::CaseError;
 use crate::input::Case;
+use crate::parallel;
 use crate::particles::{Kind, Particles};
-use rayon::prelude::*;
 
 /// The most steps a run's capillary limit may ask for.
 const MAX_STEPS: f64 = 1e9;
@@ -81,11 +81,11 @@ impl<const D: usize> Simulation<D> {
             f
         } else {
             let p = &self.particles;
-            let umax = (0..p.len())
-                .into_par_iter()
-                .filter(|&i| p.kind[i] == Kind::Fluid)
-                .map(|i| p.velocity[i].norm())
-                .reduce(|| 0.0, f64::max);
+            let speed = |i: usize| match p.kind[i] {
+                Kind::Fluid => p.velocity[i].norm(),
+                _ => 0.0,
+            };
+            let umax = parallel::map_reduce(p.len(), 0.0, speed, f64::max);
             let umax = self.max(umax);
             let c = &self.case.time;
             let l0 = self.l0();

@@ -4,8 +4,8 @@
 //! (`[scheme.surface] detector = "<name>"`, its parameters beside it).
 
 use super::kernel::Kernels;
+use crate::parallel;
 use crate::particles::{Kind, NeighborList, Vector};
-use rayon::prelude::*;
 use std::fmt;
 
 /// What a detector sees: positions, neighbours, number densities and kernels.
@@ -150,17 +150,14 @@ pub fn detect<const D: usize>(
     test_walls: bool,
     out: &mut Vec<bool>,
 ) {
-    (0..s.pos.len())
-        .into_par_iter()
-        .map(|i| {
-            let tested = match kind[i] {
-                Kind::Fluid => true,
-                Kind::Wall => test_walls,
-                Kind::Dummy => false,
-            };
-            tested && detector.is_surface(i, s)
-        })
-        .collect_into_vec(out)
+    parallel::map_into(out, s.pos.len(), |i| {
+        let tested = match kind[i] {
+            Kind::Fluid => true,
+            Kind::Wall => test_walls,
+            Kind::Dummy => false,
+        };
+        tested && detector.is_surface(i, s)
+    })
 }
 
 /// The flags `detector` gives the points `pos` (2D, spacing `l0` m, re_grad 2.1, re_lap 3.1):
