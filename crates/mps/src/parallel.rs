@@ -721,6 +721,51 @@ pub(crate) mod tests {
         );
     }
 
+    /// Many short loops back to back under the helper, of lengths from 1 to 3 000 and with
+    /// bodies that differ from loop to loop: every result is its own loop's (a helper that
+    /// ran a piece of a finished loop with a later loop's body, or missed a piece, or ran
+    /// one twice, shows as a wrong entry or a wrong count).
+    #[test]
+    fn back_to_back_loops_keep_their_own_bodies() {
+        let pool = pool_of_two();
+        let (mut bad, mut ran, helped) = (0, false, AtomicUsize::new(0));
+        for _ in 0..1000 {
+            let done = pool.install(|| {
+                with_helper(|| {
+                    if !OWNS_HELPER.with(Cell::get) {
+                        return None;
+                    }
+                    let (mut out, mut bad) = (Vec::new(), 0);
+                    let me = rayon::current_thread_index();
+                    let mut seed = 12345u64;
+                    for round in 0..20_000u64 {
+                        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+                        let n = (seed >> 33) as usize % 3000 + 1;
+                        map_into(&mut out, n, |i| i as u64 * 7 + round);
+                        bad += (0..n).filter(|&i| out[i] != i as u64 * 7 + round).count();
+                        let count = AtomicUsize::new(0);
+                        for_ranges(n, |r| {
+                            count.fetch_add(r.len(), Ordering::Relaxed);
+                            if rayon::current_thread_index() != me {
+                                helped.fetch_add(1, Ordering::Relaxed);
+                            }
+                        });
+                        bad += (count.into_inner() != n) as usize;
+                    }
+                    Some(bad)
+                })
+            });
+            if let Some(b) = done {
+                (bad, ran) = (b, true);
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        assert!(ran, "no helper could start");
+        assert!(helped.into_inner() > 0, "no piece ran on the helper");
+        assert_eq!(bad, 0);
+    }
+
     /// Work under a helper gives its result with its pool loops done on both workers
     /// (the helper takes their pieces), a second helper inside runs its work alone, and a
     /// panic in the work (or in a piece of a published loop) ends the helper and reaches
