@@ -244,10 +244,13 @@ pub fn for_ranges_by(n: usize, min: usize, body: impl Fn(Range<usize>) + Sync) {
     if n == 0 {
         return;
     }
+    if n <= min || IN_PIECE.with(Cell::get) {
+        return body(0..n);
+    }
     if publishes() && (n as u64) < NEXT_MASK {
         return run_published(n, min, &body);
     }
-    if rayon::current_num_threads() < 2 || IN_PIECE.with(Cell::get) || n <= min {
+    if rayon::current_num_threads() < 2 {
         return body(0..n);
     }
     use rayon::prelude::*;
@@ -313,8 +316,13 @@ pub fn unzip_into<A: Send, B: Send>(
 
 /// `f(i, &mut v[i])` for every index of `v`, in parallel ([`for_ranges`]).
 pub fn for_each_mut<T: Send>(v: &mut [T], f: impl Fn(usize, &mut T) + Sync) {
+    for_each_mut_by(v, MIN_PIECE, f);
+}
+
+/// [`for_each_mut`] in pieces of at least `min` indices (`usize::MAX`: on this thread).
+pub fn for_each_mut_by<T: Send>(v: &mut [T], min: usize, f: impl Fn(usize, &mut T) + Sync) {
     let dst = SendPtr(v.as_mut_ptr());
-    for_ranges(v.len(), |r| {
+    for_ranges_by(v.len(), min, |r| {
         for i in r {
             // SAFETY: the ranges are disjoint and within `v`.
             f(i, unsafe { &mut *dst.get().add(i) });
@@ -345,7 +353,24 @@ pub fn for_each_mut2<A: Send, B: Send>(
     b: &mut [B],
     f: impl Fn(usize, &mut A, &mut B) + Sync,
 ) {
-    for_each_mut2_reduce(a, b, (), |i, x, y| f(i, x, y), |(), ()| ());
+    for_each_mut2_by(a, b, MIN_PIECE, f);
+}
+
+/// [`for_each_mut2`] in pieces of at least `min` indices (`usize::MAX`: on this thread).
+pub fn for_each_mut2_by<A: Send, B: Send>(
+    a: &mut [A],
+    b: &mut [B],
+    min: usize,
+    f: impl Fn(usize, &mut A, &mut B) + Sync,
+) {
+    assert_eq!(a.len(), b.len());
+    let (pa, pb) = (SendPtr(a.as_mut_ptr()), SendPtr(b.as_mut_ptr()));
+    for_ranges_by(a.len(), min, |r| {
+        for i in r {
+            // SAFETY: the ranges are disjoint and within both slices.
+            unsafe { f(i, &mut *pa.get().add(i), &mut *pb.get().add(i)) };
+        }
+    });
 }
 
 /// `op` over `f(i, &mut v[i])` for every index of `v`, from `identity`, in parallel (`op`
@@ -395,7 +420,24 @@ pub fn map_reduce<R: Send + Sync + Copy>(
     f: impl Fn(usize) -> R + Sync,
     op: impl Fn(R, R) -> R + Sync,
 ) -> R {
-    ranges_reduce(n, identity, &op, |r| r.fold(identity, |a, i| op(a, f(i))))
+    map_reduce_by(n, MIN_PIECE, identity, f, op)
+}
+
+/// [`map_reduce`] in pieces of at least `min` indices (`usize::MAX`: on this thread).
+pub fn map_reduce_by<R: Send + Sync + Copy>(
+    n: usize,
+    min: usize,
+    identity: R,
+    f: impl Fn(usize) -> R + Sync,
+    op: impl Fn(R, R) -> R + Sync,
+) -> R {
+    let acc = Mutex::new(identity);
+    for_ranges_by(n, min, |r| {
+        let part = r.fold(identity, |a, i| op(a, f(i)));
+        let mut total = acc.lock().unwrap_or_else(|e| e.into_inner());
+        *total = op(*total, part);
+    });
+    acc.into_inner().unwrap_or_else(|e| e.into_inner())
 }
 
 /// `op` over `piece(r)` for the ranges `r` of [`for_ranges`], from `identity`.
