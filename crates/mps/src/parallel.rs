@@ -231,8 +231,8 @@ fn run_published(n: usize, min: usize, body: &Body<'_>) {
 
 /// Calls `body` on disjoint ranges that cover `0..n`, in parallel: under a helper on two
 /// workers with the spin-ended loop, elsewhere on the current rayon pool (inside a piece,
-/// on this thread alone). The ranges' bounds do not depend on the number of threads only
-/// where `body` does not care.
+/// on this thread alone). The ranges' bounds differ between these paths: what `body`
+/// computes must not depend on them.
 pub fn for_ranges(n: usize, body: impl Fn(Range<usize>) + Sync) {
     for_ranges_by(n, MIN_PIECE, body);
 }
@@ -382,7 +382,7 @@ pub fn for_each_mut_reduce<T: Send, R: Send + Sync + Copy>(
     op: impl Fn(R, R) -> R + Sync,
 ) -> R {
     let dst = SendPtr(v.as_mut_ptr());
-    ranges_reduce(v.len(), identity, &op, |r| {
+    ranges_reduce(v.len(), MIN_PIECE, identity, &op, |r| {
         r.fold(identity, |acc, i| {
             // SAFETY: the ranges are disjoint and within `v`.
             op(acc, f(i, unsafe { &mut *dst.get().add(i) }))
@@ -401,7 +401,7 @@ pub fn for_each_mut2_reduce<A: Send, B: Send, R: Send + Sync + Copy>(
 ) -> R {
     assert_eq!(a.len(), b.len());
     let (pa, pb) = (SendPtr(a.as_mut_ptr()), SendPtr(b.as_mut_ptr()));
-    ranges_reduce(a.len(), identity, &op, |r| {
+    ranges_reduce(a.len(), MIN_PIECE, identity, &op, |r| {
         r.fold(identity, |acc, i| {
             // SAFETY: the ranges are disjoint and within both slices.
             op(acc, unsafe {
@@ -431,24 +431,21 @@ pub fn map_reduce_by<R: Send + Sync + Copy>(
     f: impl Fn(usize) -> R + Sync,
     op: impl Fn(R, R) -> R + Sync,
 ) -> R {
-    let acc = Mutex::new(identity);
-    for_ranges_by(n, min, |r| {
-        let part = r.fold(identity, |a, i| op(a, f(i)));
-        let mut total = acc.lock().unwrap_or_else(|e| e.into_inner());
-        *total = op(*total, part);
-    });
-    acc.into_inner().unwrap_or_else(|e| e.into_inner())
+    ranges_reduce(n, min, identity, &op, |r| {
+        r.fold(identity, |a, i| op(a, f(i)))
+    })
 }
 
-/// `op` over `piece(r)` for the ranges `r` of [`for_ranges`], from `identity`.
+/// `op` over `piece(r)` for the ranges `r` of [`for_ranges_by`], from `identity`.
 fn ranges_reduce<R: Send + Sync + Copy>(
     n: usize,
+    min: usize,
     identity: R,
     op: &(impl Fn(R, R) -> R + Sync),
     piece: impl Fn(Range<usize>) -> R + Sync,
 ) -> R {
     let acc = Mutex::new(identity);
-    for_ranges(n, |r| {
+    for_ranges_by(n, min, |r| {
         let part = piece(r);
         let mut total = acc.lock().unwrap_or_else(|e| e.into_inner());
         *total = op(*total, part);
